@@ -1,0 +1,57 @@
+//! Float RGB OpenEXR input and output through the `exr` crate.
+
+use crate::math::Spectrum;
+use crate::texture::RgbImage;
+use std::path::Path;
+
+/// Reads the first RGB(A) layer of an EXR as linear RGB (alpha ignored).
+/// A decoder panic on a corrupt file is turned into an error: bad input must
+/// never take the process down.
+pub fn read_rgb(path: &Path) -> Result<RgbImage, String> {
+    use exr::prelude::*;
+    let path_buf = path.to_path_buf();
+    let result = std::panic::catch_unwind(move || {
+        read_first_rgba_layer_from_file(
+            &path_buf,
+            |resolution, _| RgbImage {
+                width: resolution.width(),
+                height: resolution.height(),
+                pixels: vec![Spectrum::ZERO; resolution.width() * resolution.height()],
+            },
+            |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let w = img.width;
+                img.pixels[pos.y() * w + pos.x()] = Spectrum::new(r, g, b);
+            },
+        )
+    });
+    match result {
+        Ok(Ok(image)) => {
+            let img = image.layer_data.channel_data.pixels;
+            if img.width == 0 || img.height == 0 {
+                return Err(format!("EXR '{}' is empty", path.display()));
+            }
+            Ok(img)
+        }
+        Ok(Err(e)) => Err(format!("cannot read EXR '{}': {e}", path.display())),
+        Err(_) => Err(format!("cannot read EXR '{}': corrupt file", path.display())),
+    }
+}
+
+/// Writes a float RGB EXR atomically: to a temporary file in the same folder,
+/// then renamed, so an interrupted run never leaves a truncated image.
+pub fn write_rgb(path: &Path, width: usize, height: usize, pixels: &[Spectrum]) -> Result<(), String> {
+    use exr::prelude::*;
+    assert_eq!(pixels.len(), width * height);
+    let tmp = crate::film::temp_path_for(path);
+    let res = write_rgb_file(&tmp, width, height, |x, y| {
+        let p = pixels[y * width + x];
+        (p.x, p.y, p.z)
+    });
+    match res {
+        Ok(()) => crate::film::commit_temp(&tmp, path),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(format!("cannot write EXR '{}': {e}", path.display()))
+        }
+    }
+}

@@ -1,0 +1,103 @@
+//! Small geometric helpers shared by every module: the RGB spectrum type,
+//! orthonormal shading frames and spherical coordinates.
+
+use glam::Vec3;
+
+/// Radiometric quantities are RGB triples, as in Mitsuba's `*_rgb` variants.
+pub type Spectrum = Vec3;
+
+pub const PI: f32 = std::f32::consts::PI;
+pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
+pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
+pub const INV_4PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
+
+/// Rec. 709 luminance; used wherever a scalar stands in for an RGB quantity.
+#[inline]
+pub fn luminance(c: Spectrum) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
+}
+
+/// True when every component is finite.
+#[inline]
+pub fn is_finite3(v: Vec3) -> bool {
+    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+}
+
+/// An orthonormal frame; `n` is the local +z axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// Builds a frame around a unit normal with the branch-free construction of
+    /// Duff et al. 2017, which is continuous everywhere except at n.z = -1 exactly
+    /// and never produces NaN.
+    #[inline]
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Unit direction from spherical angles around +z.
+#[inline]
+pub fn spherical_direction(cos_theta: f32, phi: f32) -> Vec3 {
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let (sin_phi, cos_phi) = phi.sin_cos();
+    Vec3::new(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta)
+}
+
+/// Mirror reflection of `v` about the local +z axis.
+#[inline]
+pub fn reflect_local(v: Vec3) -> Vec3 {
+    Vec3::new(-v.x, -v.y, v.z)
+}
+
+/// Clamps tiny negative rounding errors away before a square root.
+#[inline]
+pub fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal_everywhere_including_poles() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(1e-7, 0.0, -1.0).normalize(),
+            Vec3::new(0.3, -0.4, 0.5).normalize(),
+        ] {
+            let f = Frame::from_normal(n);
+            for (a, b) in [(f.s, f.t), (f.s, f.n), (f.t, f.n)] {
+                assert!(a.dot(b).abs() < 1e-5, "{n:?}");
+            }
+            for v in [f.s, f.t, f.n] {
+                assert!((v.length() - 1.0).abs() < 1e-5, "{n:?}");
+            }
+            let v = Vec3::new(0.2, 0.7, -0.1);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+}

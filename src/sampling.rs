@@ -1,0 +1,228 @@
+//! Random numbers and the standard warps from the unit square.
+
+use crate::math::{INV_PI, PI};
+use glam::{Vec2, Vec3};
+
+/// PCG32 (O'Neill 2014): small, fast and reproducible across platforms, so a
+/// seed and a thread count determine an image exactly.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+    inc: u64,
+}
+
+impl Rng {
+    /// A stream selected by `stream`, started by `seed`. Distinct streams are
+    /// statistically independent, which lets every pixel/pass own one.
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let mut rng = Rng {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(seed);
+        rng.next_u32();
+        rng
+    }
+
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in [0, 1), never exactly 1.
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        Vec2::new(self.next_f32(), self.next_f32())
+    }
+
+    /// Uniform in [0, 1) with 53 bits, for f64 reference integrators.
+    #[inline]
+    pub fn next_f64(&mut self) -> f64 {
+        let hi = (self.next_u32() >> 5) as u64;
+        let lo = (self.next_u32() >> 6) as u64;
+        ((hi << 26) | lo) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+/// Concentric map of Shirley and Chiu: preserves stratification better than
+/// the polar map.
+#[inline]
+pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, (PI / 4.0) * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
+    };
+    let (s, c) = theta.sin_cos();
+    Vec2::new(r * c, r * s)
+}
+
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_disk_concentric(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    if cos_theta > 0.0 { cos_theta * INV_PI } else { 0.0 }
+}
+
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+/// Uniform barycentrics on a triangle (Heitz's low-distortion map is not needed
+/// here; the square-root map is exact in measure).
+#[inline]
+pub fn square_to_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// The power heuristic with beta = 2, written to be NaN-free when
+/// both pdfs vanish or one is infinite.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    if pdf_a.is_infinite() {
+        return 1.0;
+    }
+    let a2 = pdf_a * pdf_a;
+    let b2 = pdf_b * pdf_b;
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
+        a2 / (a2 + b2)
+    } else if pdf_a > 0.0 {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// A piecewise-constant 1D distribution with its CDF, for emitter and
+/// environment-map selection.
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    pub func: Vec<f32>,
+    cdf: Vec<f64>,
+    pub integral: f64,
+}
+
+impl Distribution1D {
+    /// Non-finite or negative entries are treated as zero; an all-zero input
+    /// becomes uniform so sampling is always defined.
+    pub fn new(values: &[f32]) -> Self {
+        let func: Vec<f32> = values
+            .iter()
+            .map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 })
+            .collect();
+        let n = func.len().max(1);
+        let mut cdf = Vec::with_capacity(n + 1);
+        cdf.push(0.0f64);
+        for &f in &func {
+            let last = *cdf.last().unwrap();
+            cdf.push(last + f as f64 / n as f64);
+        }
+        let integral = *cdf.last().unwrap();
+        if integral > 0.0 {
+            for c in cdf.iter_mut() {
+                *c /= integral;
+            }
+        } else {
+            for (i, c) in cdf.iter_mut().enumerate() {
+                *c = i as f64 / n as f64;
+            }
+        }
+        Distribution1D {
+            func,
+            cdf,
+            integral,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// Returns (index, pdf of the index, the sample rescaled to [0,1) inside the bin).
+    pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
+        let u = u as f64;
+        let n = self.func.len();
+        // first index with cdf[i+1] > u
+        let mut lo = 0usize;
+        let mut hi = n;
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if self.cdf[mid + 1] <= u {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        let i = lo.min(n.saturating_sub(1));
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let remapped = if width > 0.0 {
+            ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON)
+        } else {
+            0.5
+        };
+        (i, self.discrete_pdf(i), remapped as f32)
+    }
+
+    pub fn discrete_pdf(&self, i: usize) -> f32 {
+        (self.cdf[i + 1] - self.cdf[i]) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distribution_samples_proportionally() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, f32::NAN]);
+        assert_eq!(d.discrete_pdf(1), 0.0);
+        assert_eq!(d.discrete_pdf(3), 0.0);
+        assert!((d.discrete_pdf(2) - 0.75).abs() < 1e-6);
+        let mut rng = Rng::new(1, 2);
+        let mut counts = [0u32; 4];
+        for _ in 0..40000 {
+            counts[d.sample_discrete(rng.next_f32()).0] += 1;
+        }
+        assert_eq!(counts[1] + counts[3], 0);
+        assert!((counts[2] as f32 / 40000.0 - 0.75).abs() < 0.01);
+    }
+
+    #[test]
+    fn rng_streams_differ_and_repeat() {
+        let a: Vec<u32> = (0..4).map(|_| 0).scan(Rng::new(7, 1), |r, _| Some(r.next_u32())).collect();
+        let b: Vec<u32> = (0..4).map(|_| 0).scan(Rng::new(7, 1), |r, _| Some(r.next_u32())).collect();
+        let c: Vec<u32> = (0..4).map(|_| 0).scan(Rng::new(7, 2), |r, _| Some(r.next_u32())).collect();
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+    }
+}
