@@ -2,8 +2,9 @@
 //! (Diolatzis, Gruson, Jakob, Nowrouzezahrai and Drettakis, CGF 2020).
 
 pub mod bsdf;
+pub mod directional;
+pub mod film;
 pub mod math;
 pub mod sampling;
 pub mod stats;
 pub mod texture;
-pub mod film;

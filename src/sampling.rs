@@ -28,9 +28,7 @@ impl Rng {
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(self.inc);
+        self.state = old.wrapping_mul(6364136223846793005).wrapping_add(self.inc);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         let rot = (old >> 59) as u32;
         xorshifted.rotate_right(rot)
@@ -82,7 +80,11 @@ pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
 
 #[inline]
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    if cos_theta > 0.0 { cos_theta * INV_PI } else { 0.0 }
+    if cos_theta > 0.0 {
+        cos_theta * INV_PI
+    } else {
+        0.0
+    }
 }
 
 #[inline]
@@ -219,9 +221,18 @@ mod tests {
 
     #[test]
     fn rng_streams_differ_and_repeat() {
-        let a: Vec<u32> = (0..4).map(|_| 0).scan(Rng::new(7, 1), |r, _| Some(r.next_u32())).collect();
-        let b: Vec<u32> = (0..4).map(|_| 0).scan(Rng::new(7, 1), |r, _| Some(r.next_u32())).collect();
-        let c: Vec<u32> = (0..4).map(|_| 0).scan(Rng::new(7, 2), |r, _| Some(r.next_u32())).collect();
+        let a: Vec<u32> = (0..4)
+            .map(|_| 0)
+            .scan(Rng::new(7, 1), |r, _| Some(r.next_u32()))
+            .collect();
+        let b: Vec<u32> = (0..4)
+            .map(|_| 0)
+            .scan(Rng::new(7, 1), |r, _| Some(r.next_u32()))
+            .collect();
+        let c: Vec<u32> = (0..4)
+            .map(|_| 0)
+            .scan(Rng::new(7, 2), |r, _| Some(r.next_u32()))
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

@@ -22,7 +22,10 @@ impl RgbImage {
 
     /// Counts pixels with a NaN/Inf component.
     pub fn non_finite_pixels(&self) -> usize {
-        self.pixels.iter().filter(|p| !crate::math::is_finite3(**p)).count()
+        self.pixels
+            .iter()
+            .filter(|p| !crate::math::is_finite3(**p))
+            .count()
     }
 }
 
@@ -64,10 +67,7 @@ impl Texture {
     pub fn max_value(&self) -> Spectrum {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Bitmap(img) => img
-                .pixels
-                .iter()
-                .fold(Spectrum::ZERO, |a, &p| a.max(p)),
+            Texture::Bitmap(img) => img.pixels.iter().fold(Spectrum::ZERO, |a, &p| a.max(p)),
             Texture::Checkerboard { color0, color1, .. } => color0.max(*color1),
         }
     }
@@ -126,7 +126,8 @@ pub fn load_image(path: &Path, raw: bool) -> Result<RgbImage, String> {
     if ext == "exr" {
         return crate::film::exr_io::read_rgb(path);
     }
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
     let img = image::load_from_memory(&bytes)
         .map_err(|e| format!("cannot decode image '{}': {e}", path.display()))?;
     let (w, h) = (img.width() as usize, img.height() as usize);

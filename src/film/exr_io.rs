@@ -33,13 +33,21 @@ pub fn read_rgb(path: &Path) -> Result<RgbImage, String> {
             Ok(img)
         }
         Ok(Err(e)) => Err(format!("cannot read EXR '{}': {e}", path.display())),
-        Err(_) => Err(format!("cannot read EXR '{}': corrupt file", path.display())),
+        Err(_) => Err(format!(
+            "cannot read EXR '{}': corrupt file",
+            path.display()
+        )),
     }
 }
 
 /// Writes a float RGB EXR atomically: to a temporary file in the same folder,
 /// then renamed, so an interrupted run never leaves a truncated image.
-pub fn write_rgb(path: &Path, width: usize, height: usize, pixels: &[Spectrum]) -> Result<(), String> {
+pub fn write_rgb(
+    path: &Path,
+    width: usize,
+    height: usize,
+    pixels: &[Spectrum],
+) -> Result<(), String> {
     use exr::prelude::*;
     assert_eq!(pixels.len(), width * height);
     let tmp = crate::film::temp_path_for(path);

@@ -255,7 +255,11 @@ impl SphereMap {
     pub fn from_square(&self, p: DVec2) -> (Vec3, f64) {
         let k = self.sharpness;
         let s = p.x.max(0.0).powf(k);
-        let ds_du = if k == 1.0 { 1.0 } else { k * p.x.max(0.0).powf(k - 1.0) };
+        let ds_du = if k == 1.0 {
+            1.0
+        } else {
+            k * p.x.max(0.0).powf(k - 1.0)
+        };
         let cos_t = 1.0 - 2.0 * s;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let phi = 2.0 * std::f64::consts::PI * p.y;
@@ -396,7 +400,13 @@ mod tests {
             &cfg,
             &map,
             || Some(square_to_cosine_hemisphere(rng.next_2d())),
-            |d| if d.z > 0.0 { 1.0 / (2.0 * PI as f64) } else { 0.0 },
+            |d| {
+                if d.z > 0.0 {
+                    1.0 / (2.0 * PI as f64)
+                } else {
+                    0.0
+                }
+            },
         );
         assert!(!bad.passed, "{}", bad.message);
     }

@@ -1,0 +1,127 @@
+//! The directional domain shared by the quadtree and the LTC cell integrals.
+//!
+//! World directions map to the unit square by the equal-area cylindrical map
+//! u = (cos θ + 1)/2, v = φ/2π, with θ and φ measured around world +z. The
+//! density conversion is therefore constant: p_ω = p_square / 4π.
+//!
+//! Cells are addressed as (depth, ix, iy): at depth d the square is split into
+//! 2^d × 2^d cells and cell (ix, iy) covers u ∈ [ix, ix+1]/2^d and
+//! v ∈ [iy, iy+1]/2^d. Child k ∈ 0..4 of a cell is (2·ix + (k & 1),
+//! 2·iy + (k >> 1)) at depth d+1: bit 0 steps in u (cos θ), bit 1 in v (φ).
+//! Every module that enumerates children uses this order.
+
+use crate::math::{INV_4PI, PI};
+use glam::{Vec2, Vec3};
+
+/// Converts a square-measure density to a solid-angle density.
+pub const SQUARE_TO_SOLID_ANGLE_PDF: f32 = INV_4PI;
+
+/// A cell of the cylindrical map, as bounds on cos θ and φ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    pub depth: u32,
+    pub ix: u32,
+    pub iy: u32,
+}
+
+/// Cylindrical bounds of a cell: cos θ ∈ [z0, z1], φ ∈ [phi0, phi1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellBounds {
+    pub z0: f64,
+    pub z1: f64,
+    pub phi0: f64,
+    pub phi1: f64,
+}
+
+impl Cell {
+    pub const ROOT: Cell = Cell {
+        depth: 0,
+        ix: 0,
+        iy: 0,
+    };
+
+    #[inline]
+    pub fn child(&self, k: usize) -> Cell {
+        Cell {
+            depth: self.depth + 1,
+            ix: 2 * self.ix + (k as u32 & 1),
+            iy: 2 * self.iy + (k as u32 >> 1),
+        }
+    }
+
+    /// Bounds on the unit square: (u0, v0) and the side length.
+    #[inline]
+    pub fn square_bounds(&self) -> (f64, f64, f64) {
+        let size = 1.0 / (1u64 << self.depth) as f64;
+        (self.ix as f64 * size, self.iy as f64 * size, size)
+    }
+
+    pub fn bounds(&self) -> CellBounds {
+        let (u0, v0, size) = self.square_bounds();
+        CellBounds {
+            z0: 2.0 * u0 - 1.0,
+            z1: 2.0 * (u0 + size) - 1.0,
+            phi0: 2.0 * std::f64::consts::PI * v0,
+            phi1: 2.0 * std::f64::consts::PI * (v0 + size),
+        }
+    }
+
+    /// Solid angle of the cell: every cell at depth d covers 4π/4^d sr.
+    #[inline]
+    pub fn solid_angle(&self) -> f64 {
+        4.0 * std::f64::consts::PI / (1u64 << (2 * self.depth)) as f64
+    }
+}
+
+/// Square coordinates of a unit world direction.
+#[inline]
+pub fn dir_to_square(d: Vec3) -> Vec2 {
+    let u = (d.z.clamp(-1.0, 1.0) + 1.0) * 0.5;
+    let mut phi = d.y.atan2(d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let v = phi * (0.5 / PI);
+    // atan2 can round up to exactly 2π; keep v in [0, 1).
+    Vec2::new(u.clamp(0.0, 1.0), if v >= 1.0 { 0.0 } else { v })
+}
+
+/// Unit world direction of a point of the square.
+#[inline]
+pub fn square_to_dir(p: Vec2) -> Vec3 {
+    let z = 2.0 * p.x - 1.0;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * p.y).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn map_round_trips_and_children_tile_the_parent() {
+        for &d in &[
+            Vec3::new(0.3, -0.5, 0.2).normalize(),
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::Z,
+        ] {
+            let back = square_to_dir(dir_to_square(d));
+            assert!((back - d).length() < 1e-5, "{d:?} {back:?}");
+        }
+        let parent = Cell {
+            depth: 3,
+            ix: 5,
+            iy: 2,
+        };
+        let pb = parent.bounds();
+        let c0 = parent.child(0).bounds();
+        let c3 = parent.child(3).bounds();
+        assert_eq!(c0.z0, pb.z0);
+        assert_eq!(c0.phi0, pb.phi0);
+        assert_eq!(c3.z1, pb.z1);
+        assert_eq!(c3.phi1, pb.phi1);
+        let child_area: f64 = (0..4).map(|k| parent.child(k).solid_angle()).sum();
+        assert!((child_area - parent.solid_angle()).abs() < 1e-12);
+    }
+}
