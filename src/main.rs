@@ -1,1 +1,219 @@
-fn main() {}
+//! The `ltcguide` command line.
+
+use clap::{Args, Parser, Subcommand};
+use ltcguide::film::exr_io::{read_image, write_rgb};
+use ltcguide::film::metrics::{mae, relmse};
+use ltcguide::film::png_io::write_png;
+use ltcguide::integrator::path::{PathSettings, RouletteMode};
+use ltcguide::render::{Budget, Method, RenderOptions, render};
+use ltcguide::scene::{Scene, load_scene};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Practical product path guiding with Linearly Transformed Cosines.
+#[derive(Parser)]
+#[command(name = "ltcguide", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to an EXR and a PNG preview.
+    Render(RenderArgs),
+    /// Print MAE and relMSE of an image against a reference (DESIGN.md §6).
+    Error { image: PathBuf, reference: PathBuf },
+    /// Print what a scene contains.
+    Info { scene: PathBuf },
+}
+
+const DEFAULT_SCENE: &str = "scenes/cornell-glossy/scene.xml";
+
+#[derive(Args, Clone)]
+struct RenderArgs {
+    /// Scene file (Mitsuba 3 XML subset).
+    #[arg(default_value = DEFAULT_SCENE)]
+    scene: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, conflicts_with = "time")]
+    spp: Option<u32>,
+    /// Wall-clock budget in seconds instead of a sample count.
+    #[arg(long)]
+    time: Option<f64>,
+    /// Output EXR; a PNG preview is written next to it.
+    #[arg(long, default_value = "out/render.exr")]
+    out: PathBuf,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Next-event estimation (light sampling with MIS).
+    #[arg(long, overrides_with = "no_nee")]
+    nee: bool,
+    /// Disable next-event estimation.
+    #[arg(long, overrides_with = "nee")]
+    no_nee: bool,
+    /// Maximum path segments, camera ray included (overrides the scene; -1 = unlimited).
+    #[arg(long, allow_negative_numbers = true)]
+    max_depth: Option<i64>,
+    #[arg(long, value_enum, default_value_t = Method::Pt)]
+    method: Method,
+    /// Russian roulette strategy.
+    #[arg(long, value_enum, default_value_t = RouletteMode::Classic)]
+    rr: RouletteMode,
+    /// Write render statistics as JSON.
+    #[arg(long)]
+    stats_json: Option<PathBuf>,
+}
+
+/// Bad input (scene, image, arguments): exit code 2, like clap's own errors.
+const EXIT_BAD_INPUT: u8 = 2;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    // No subcommand: render the default scene with default settings.
+    let command = cli
+        .command
+        .or_else(|| Cli::parse_from(["ltcguide", "render"]).command)
+        .expect("the render subcommand parses without arguments");
+    let result = match command {
+        Command::Render(args) => cmd_render(&args),
+        Command::Error { image, reference } => cmd_error(&image, &reference),
+        Command::Info { scene } => cmd_info(&scene),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_BAD_INPUT)
+        }
+    }
+}
+
+/// Finds the scene relative to the working directory, or to the crate root
+/// for the default scene, so `cargo run --release` works from anywhere.
+fn resolve_scene(path: &Path) -> PathBuf {
+    if path.exists() || path.is_absolute() {
+        return path.to_path_buf();
+    }
+    let in_crate = Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+    if in_crate.exists() {
+        in_crate
+    } else {
+        path.to_path_buf()
+    }
+}
+
+fn load(path: &Path) -> Result<Scene, String> {
+    let scene = load_scene(&resolve_scene(path)).map_err(|e| e.to_string())?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+fn cmd_render(args: &RenderArgs) -> Result<(), String> {
+    let scene = load(&args.scene)?;
+    let budget = match (args.spp, args.time) {
+        (Some(n), _) if n == 0 => return Err("--spp must be at least 1".into()),
+        (Some(n), _) => Budget::Spp(n),
+        (None, Some(t)) if !(t > 0.0 && t.is_finite()) => {
+            return Err("--time must be a positive number of seconds".into());
+        }
+        (None, Some(t)) => Budget::Seconds(t),
+        (None, None) => Budget::Spp(64),
+    };
+    let max_depth = match args.max_depth {
+        None => scene.max_depth.or(Some(10)),
+        Some(-1) => None,
+        Some(d) if d >= 1 => Some(d as u32),
+        Some(d) => return Err(format!("--max-depth must be -1 or at least 1, got {d}")),
+    };
+    let nee = if args.no_nee {
+        false
+    } else {
+        args.nee || args.method == Method::Pt
+    };
+    let opts = RenderOptions {
+        method: args.method,
+        budget,
+        seed: args.seed,
+        threads: args.threads,
+        path: PathSettings {
+            nee,
+            max_depth,
+            roulette: args.rr,
+        },
+        progress: true,
+    };
+    if args.out.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(format!(
+            "--out must name an .exr file, got '{}'",
+            args.out.display()
+        ));
+    }
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create '{}': {e}", dir.display()))?;
+    }
+    let result = render(&scene, &opts)?;
+    write_rgb(
+        &args.out,
+        result.image.width,
+        result.image.height,
+        &result.image.pixels,
+    )?;
+    let png = args.out.with_extension("png");
+    write_png(&png, &result.image)?;
+    let s = &result.stats;
+    eprintln!(
+        "{}: {} spp in {:.2} s ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",
+        s.scene,
+        s.spp,
+        s.seconds,
+        s.paths_per_second / 1e6,
+        s.rays_per_second / 1e6,
+        s.threads,
+        args.out.display(),
+        png.display()
+    );
+    if let Some(path) = &args.stats_json {
+        let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
+        let tmp = ltcguide::film::temp_path_for(path);
+        std::fs::write(&tmp, json)
+            .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
+        ltcguide::film::commit_temp(&tmp, path)?;
+    }
+    Ok(())
+}
+
+fn cmd_error(image: &Path, reference: &Path) -> Result<(), String> {
+    let img = read_image(image)?;
+    let reference = read_image(reference)?;
+    println!("mae {:.6e}", mae(&img, &reference)?);
+    println!("relmse {:.6e}", relmse(&img, &reference)?);
+    Ok(())
+}
+
+fn cmd_info(path: &Path) -> Result<(), String> {
+    let scene = load(path)?;
+    println!("scene      {}", scene.name);
+    println!("file       {}", scene.file.display());
+    println!("image      {}x{}", scene.camera.width, scene.camera.height);
+    println!("triangles  {}", scene.triangle_count());
+    println!("primitives {}", scene.geometry.len());
+    println!("shapes     {}", scene.shapes.len());
+    println!("materials  {}", scene.materials.len());
+    println!("lights     {}", scene.lights.lights.len());
+    println!(
+        "max_depth  {}",
+        scene
+            .max_depth
+            .map(|d| d.to_string())
+            .unwrap_or_else(|| "unlimited".into())
+    );
+    println!("bounds     {:?} .. {:?}", scene.bounds.0, scene.bounds.1);
+    Ok(())
+}

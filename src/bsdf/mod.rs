@@ -145,26 +145,102 @@ pub enum BsdfModel {
 }
 
 impl Material {
+    pub fn new(kind: MaterialKind, two_sided: bool) -> Result<Material, String> {
+        Ok(Material { kind, two_sided })
+    }
+
     pub fn at(&self, uv: Vec2) -> Bsdf {
-        todo!("BSDF helper")
+        let reflectance = match &self.kind {
+            MaterialKind::Diffuse { reflectance } => reflectance.eval(uv),
+            MaterialKind::RoughPlastic {
+                diffuse_reflectance,
+                ..
+            }
+            | MaterialKind::Plastic {
+                diffuse_reflectance,
+                ..
+            } => diffuse_reflectance.eval(uv),
+            MaterialKind::RoughConductor {
+                specular_reflectance,
+                ..
+            }
+            | MaterialKind::Conductor {
+                specular_reflectance,
+                ..
+            } => specular_reflectance.eval(uv),
+            _ => Spectrum::ZERO,
+        };
+        Bsdf {
+            model: BsdfModel::Diffuse { reflectance },
+            two_sided: self.two_sided,
+        }
     }
 }
 
 impl Bsdf {
+    fn rho(&self) -> Spectrum {
+        match self.model {
+            BsdfModel::Diffuse { reflectance } => reflectance,
+            _ => Spectrum::ZERO,
+        }
+    }
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Spectrum {
-        todo!()
+        let (wo, wi) = if self.two_sided && wo.z < 0.0 {
+            (-wo, -wi)
+        } else {
+            (wo, wi)
+        };
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        self.rho() * wi.z * crate::math::INV_PI
     }
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        todo!()
+        let (wo, wi) = if self.two_sided && wo.z < 0.0 {
+            (-wo, -wi)
+        } else {
+            (wo, wi)
+        };
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        wi.z * crate::math::INV_PI
     }
-    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        todo!()
+    pub fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let flip = self.two_sided && wo.z < 0.0;
+        let wo_f = if flip { -wo } else { wo };
+        if wo_f.z <= 0.0 {
+            return None;
+        }
+        let mut wi = crate::sampling::square_to_cosine_hemisphere(u);
+        let pdf = wi.z * crate::math::INV_PI;
+        if pdf <= 0.0 {
+            return None;
+        }
+        if flip {
+            wi = -wi;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.rho(),
+            pdf,
+            is_delta: false,
+            eta: 1.0,
+        })
     }
-    pub fn lobes(&self, wo: Vec3) -> Lobes {
-        todo!()
+    pub fn lobes(&self, _wo: Vec3) -> Lobes {
+        Lobes {
+            diffuse: crate::math::luminance(self.rho()),
+            ggx: [GgxLobe {
+                weight: 0.0,
+                alpha: 1.0,
+            }],
+            ggx_count: 0,
+            delta: 0.0,
+            side: 1.0,
+        }
     }
-    /// True if the BSDF has a non-delta component (NEE and guiding apply).
     pub fn has_smooth_lobes_only(&self) -> bool {
-        todo!()
+        false
     }
 }

@@ -63,3 +63,13 @@ pub fn write_rgb(
         }
     }
 }
+
+/// Reads an EXR as an [`Image`](super::image::Image).
+pub fn read_image(path: &Path) -> Result<super::image::Image, String> {
+    let img = read_rgb(path)?;
+    Ok(super::image::Image {
+        width: img.width,
+        height: img.height,
+        pixels: img.pixels,
+    })
+}

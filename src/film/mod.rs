@@ -20,3 +20,7 @@ pub fn commit_temp(tmp: &Path, path: &Path) -> Result<(), String> {
         format!("cannot write '{}': {e}", path.display())
     })
 }
+
+pub mod image;
+pub mod metrics;
+pub mod png_io;

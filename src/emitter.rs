@@ -1,0 +1,512 @@
+//! Emitters of the subset: one-sided `area` lights on triangle meshes and
+//! spheres, the lat-long `envmap`, and `constant` — with next-event sampling
+//! and the matching solid-angle pdfs for multiple importance sampling.
+
+use crate::math::{INV_4PI, PI, Spectrum, luminance};
+use crate::sampling::{Distribution1D, square_to_triangle, square_to_uniform_sphere};
+use crate::texture::RgbImage;
+use glam::{Mat3, Vec2, Vec3};
+
+/// One emitting triangle, with its shading normals deciding the emitting side.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterTriangle {
+    pub prim: u32,
+    pub p0: Vec3,
+    pub e1: Vec3,
+    pub e2: Vec3,
+    pub n: Option<[Vec3; 3]>,
+}
+
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// An `area` emitter on a triangle shape (mesh, rectangle, cube).
+    Mesh {
+        radiance: Spectrum,
+        triangles: Vec<EmitterTriangle>,
+        area_distribution: Distribution1D,
+        area: f32,
+    },
+    /// An `area` emitter on an analytic sphere; `sign` is −1 for flipped normals.
+    Sphere {
+        radiance: Spectrum,
+        center: Vec3,
+        radius: f32,
+        sign: f32,
+    },
+    Env(EnvMap),
+    Constant(Spectrum),
+}
+
+/// A next-event sample: direction to the light, distance (∞ for lights at
+/// infinity), the emitted radiance and the solid-angle pdf including the
+/// light-selection probability.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub wi: Vec3,
+    pub dist: f32,
+    pub radiance: Spectrum,
+    pub pdf: f32,
+}
+
+pub struct Lights {
+    pub lights: Vec<Light>,
+    selection: Distribution1D,
+}
+
+impl Lights {
+    /// Lights are selected in proportion to their power; lights at infinity
+    /// (whose power is unbounded without a scene scale) share half of the
+    /// selection probability when finite lights exist too.
+    pub fn new(lights: Vec<Light>) -> Self {
+        let finite_power: Vec<f32> = lights
+            .iter()
+            .map(|l| match l {
+                Light::Mesh { radiance, area, .. } => luminance(*radiance) * area * PI,
+                Light::Sphere {
+                    radiance, radius, ..
+                } => luminance(*radiance) * 4.0 * PI * radius * radius * PI,
+                _ => 0.0,
+            })
+            .collect();
+        let total_finite: f32 = finite_power.iter().sum();
+        let n_infinite = lights.iter().filter(|l| l.is_infinite()).count();
+        let weights: Vec<f32> = lights
+            .iter()
+            .zip(&finite_power)
+            .map(|(l, &p)| {
+                if l.is_infinite() {
+                    if total_finite > 0.0 {
+                        total_finite / n_infinite as f32
+                    } else {
+                        1.0
+                    }
+                } else if total_finite > 0.0 {
+                    p
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        Lights {
+            selection: Distribution1D::new(&weights),
+            lights,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    pub fn has_infinite(&self) -> bool {
+        self.lights.iter().any(Light::is_infinite)
+    }
+
+    pub fn selection_pdf(&self, light: u32) -> f32 {
+        self.selection.discrete_pdf(light as usize)
+    }
+
+    /// Samples a light and a direction towards it from `p`.
+    pub fn sample(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        if self.lights.is_empty() {
+            return None;
+        }
+        let (index, select_pdf, _) = self.selection.sample_discrete(u_select);
+        if select_pdf <= 0.0 {
+            return None;
+        }
+        let s = self.lights[index].sample(p, u)?;
+        let pdf = s.pdf * select_pdf;
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        Some(LightSample { pdf, ..s })
+    }
+
+    /// Radiance arriving along a ray that leaves the scene in direction `d`.
+    pub fn eval_infinite(&self, d: Vec3) -> Spectrum {
+        self.lights
+            .iter()
+            .map(|l| match l {
+                Light::Env(env) => env.eval(d),
+                Light::Constant(c) => *c,
+                _ => Spectrum::ZERO,
+            })
+            .sum()
+    }
+
+    /// Solid-angle pdf with which `sample` produces direction `d` through the
+    /// lights at infinity.
+    pub fn pdf_infinite(&self, d: Vec3) -> f32 {
+        self.lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| match l {
+                Light::Env(env) => env.pdf(d) * self.selection.discrete_pdf(i),
+                Light::Constant(_) => INV_4PI * self.selection.discrete_pdf(i),
+                _ => 0.0,
+            })
+            .sum()
+    }
+
+    /// Solid-angle pdf with which `sample` from `p_ref` produces the point
+    /// `p_light` (normal `n_light`) of area light `light`.
+    pub fn pdf_area(&self, light: u32, p_ref: Vec3, p_light: Vec3, n_light: Vec3) -> f32 {
+        let sel = self.selection.discrete_pdf(light as usize);
+        match &self.lights[light as usize] {
+            Light::Mesh { area, .. } => {
+                let d = p_light - p_ref;
+                let dist2 = d.length_squared();
+                let cos = n_light.dot(d).abs() / dist2.sqrt();
+                if cos <= 0.0 || *area <= 0.0 {
+                    return 0.0;
+                }
+                sel * dist2 / (cos * area)
+            }
+            Light::Sphere { center, radius, .. } => {
+                sel * sphere_cone_pdf(*center, *radius, p_ref).unwrap_or_else(|| {
+                    // Inside the sphere: area sampling was used.
+                    let d = p_light - p_ref;
+                    let dist2 = d.length_squared();
+                    let cos = n_light.dot(d).abs() / dist2.sqrt();
+                    if cos > 0.0 {
+                        dist2 / (cos * 4.0 * PI * radius * radius)
+                    } else {
+                        0.0
+                    }
+                })
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Emitted radiance of area light `light` towards `toward` (unit, world)
+    /// at a point with shading normal `ns`: one-sided.
+    pub fn emitted(&self, light: u32, ns: Vec3, toward: Vec3) -> Spectrum {
+        match &self.lights[light as usize] {
+            Light::Mesh { radiance, .. } | Light::Sphere { radiance, .. } => {
+                if ns.dot(toward) > 0.0 {
+                    *radiance
+                } else {
+                    Spectrum::ZERO
+                }
+            }
+            _ => Spectrum::ZERO,
+        }
+    }
+}
+
+impl Light {
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Env(_) | Light::Constant(_))
+    }
+
+    /// Builds a mesh light; zero-area triangles are skipped (they can never be hit).
+    pub fn mesh(radiance: Spectrum, triangles: Vec<EmitterTriangle>) -> Option<Light> {
+        let areas: Vec<f32> = triangles
+            .iter()
+            .map(|t| 0.5 * t.e1.cross(t.e2).length())
+            .collect();
+        let area: f32 = areas.iter().sum();
+        if !(area > 0.0 && area.is_finite()) {
+            return None;
+        }
+        Some(Light::Mesh {
+            radiance,
+            area_distribution: Distribution1D::new(&areas),
+            triangles,
+            area,
+        })
+    }
+
+    fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match self {
+            Light::Mesh {
+                radiance,
+                triangles,
+                area_distribution,
+                area,
+            } => {
+                let (i, _, ux) = area_distribution.sample_discrete(u.x);
+                let t = &triangles[i];
+                let b = square_to_triangle(Vec2::new(ux, u.y));
+                let q = t.p0 + t.e1 * b.x + t.e2 * b.y;
+                let ng = t.e1.cross(t.e2).normalize();
+                let ns = match t.n {
+                    Some(n) => {
+                        (n[0] * (1.0 - b.x - b.y) + n[1] * b.x + n[2] * b.y).normalize_or(ng)
+                    }
+                    None => ng,
+                };
+                let d = q - p;
+                let dist2 = d.length_squared();
+                let dist = dist2.sqrt();
+                if dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                if ns.dot(-wi) <= 0.0 {
+                    return None; // the back side does not emit
+                }
+                let cos = ng.dot(wi).abs();
+                if cos <= 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    dist,
+                    radiance: *radiance,
+                    pdf: dist2 / (cos * area),
+                })
+            }
+            Light::Sphere {
+                radiance,
+                center,
+                radius,
+                sign,
+            } => {
+                let to_center = *center - p;
+                let dist_c2 = to_center.length_squared();
+                if dist_c2 <= radius * radius {
+                    // Inside: uniform area sampling; emission faces inward only if flipped.
+                    let n = square_to_uniform_sphere(u);
+                    let q = *center + n * *radius;
+                    let d = q - p;
+                    let dist2 = d.length_squared();
+                    let dist = dist2.sqrt();
+                    let wi = d / dist;
+                    if (n * *sign).dot(-wi) <= 0.0 {
+                        return None;
+                    }
+                    let cos = n.dot(wi).abs();
+                    return Some(LightSample {
+                        wi,
+                        dist,
+                        radiance: *radiance,
+                        pdf: dist2 / (cos * 4.0 * PI * radius * radius),
+                    });
+                }
+                if *sign < 0.0 {
+                    return None; // flipped sphere seen from outside: emits inward only
+                }
+                // Uniform sampling of the cone subtended by the sphere.
+                let dist_c = dist_c2.sqrt();
+                let sin_max2 = radius * radius / dist_c2;
+                let cos_max = (1.0 - sin_max2).max(0.0).sqrt();
+                let cos_t = 1.0 - u.x * (1.0 - cos_max);
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                let phi = 2.0 * PI * u.y;
+                let frame = crate::math::Frame::from_normal(to_center / dist_c);
+                let wi = frame.to_world(Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t));
+                // Distance to the near intersection.
+                let t = crate::accel::sphere_intersect(*center, *radius, p, wi, 0.0, f32::INFINITY);
+                let dist = if t.is_finite() { t } else { dist_c * cos_t };
+                let pdf = 1.0 / (2.0 * PI * (1.0 - cos_max));
+                if !pdf.is_finite() {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    dist,
+                    radiance: *radiance,
+                    pdf,
+                })
+            }
+            Light::Env(env) => {
+                let (wi, pdf) = env.sample(u)?;
+                Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    radiance: env.eval(wi),
+                    pdf,
+                })
+            }
+            Light::Constant(c) => Some(LightSample {
+                wi: square_to_uniform_sphere(u),
+                dist: f32::INFINITY,
+                radiance: *c,
+                pdf: INV_4PI,
+            }),
+        }
+    }
+}
+
+/// Solid-angle pdf of cone sampling a sphere from outside, `None` inside.
+fn sphere_cone_pdf(center: Vec3, radius: f32, p: Vec3) -> Option<f32> {
+    let dist_c2 = (center - p).length_squared();
+    if dist_c2 <= radius * radius {
+        return None;
+    }
+    let cos_max = (1.0 - radius * radius / dist_c2).max(0.0).sqrt();
+    Some(1.0 / (2.0 * PI * (1.0 - cos_max)))
+}
+
+/// Mitsuba's lat-long environment map (scene pack README, "envmap").
+#[derive(Clone, Debug)]
+pub struct EnvMap {
+    pub image: RgbImage,
+    pub scale: f32,
+    to_local: Mat3,
+    to_world: Mat3,
+    rows: Distribution1D,
+    row_cdfs: Vec<Distribution1D>,
+}
+
+impl EnvMap {
+    pub fn new(image: RgbImage, scale: f32, to_world: Mat3) -> Self {
+        let (w, h) = (image.width, image.height);
+        // Piecewise-constant sampling over a W×H grid in (u, v). Each cell's
+        // weight bounds the bilinear lookup over the cell from above (max of
+        // the pixels it can touch), so every direction with non-zero radiance
+        // has non-zero pdf.
+        let mut row_cdfs = Vec::with_capacity(h);
+        let mut row_weights = Vec::with_capacity(h);
+        for j in 0..h {
+            let y_lo = ((j as f32 / h as f32) * (h as f32 - 1.0)).floor() as usize;
+            let y_hi = (((j + 1) as f32 / h as f32) * (h as f32 - 1.0)).ceil() as usize;
+            let theta0 = PI * j as f32 / h as f32;
+            let theta1 = PI * (j + 1) as f32 / h as f32;
+            let max_sin = if theta0 <= 0.5 * PI && theta1 >= 0.5 * PI {
+                1.0
+            } else {
+                theta0.sin().max(theta1.sin())
+            };
+            let mut weights = Vec::with_capacity(w);
+            for i in 0..w {
+                let mut m = 0.0f32;
+                for y in y_lo..=y_hi.min(h - 1) {
+                    for dx in [w - 1, 0, 1] {
+                        let x = (i + dx) % w;
+                        let v = luminance(image.get(x, y));
+                        if v.is_finite() {
+                            m = m.max(v);
+                        }
+                    }
+                }
+                weights.push(m * max_sin);
+            }
+            let d = Distribution1D::new(&weights);
+            row_weights.push(d.integral as f32);
+            row_cdfs.push(d);
+        }
+        EnvMap {
+            rows: Distribution1D::new(&row_weights),
+            row_cdfs,
+            image,
+            scale,
+            to_local: to_world.inverse(),
+            to_world,
+        }
+    }
+
+    fn direction_to_uv(&self, d: Vec3) -> Vec2 {
+        let l = self.to_local * d;
+        let mut u = l.x.atan2(-l.z) / (2.0 * PI);
+        if u < 0.0 {
+            u += 1.0;
+        }
+        let v = l.y.clamp(-1.0, 1.0).acos() / PI;
+        Vec2::new(u.min(1.0), v)
+    }
+
+    pub fn eval(&self, d: Vec3) -> Spectrum {
+        let uv = self.direction_to_uv(d);
+        let (w, h) = (self.image.width, self.image.height);
+        let x = uv.x * w as f32 - 0.5;
+        let y = (uv.y * (h as f32 - 1.0)).clamp(0.0, h as f32 - 1.0);
+        let (fx, fy) = (x.floor(), y.floor());
+        let (tx, ty) = (x - fx, y - fy);
+        let x0 = (fx as i64).rem_euclid(w as i64) as usize;
+        let x1 = (x0 + 1) % w;
+        let y0 = fy as usize;
+        let y1 = (y0 + 1).min(h - 1);
+        let top = self.image.get(x0, y0) * (1.0 - tx) + self.image.get(x1, y0) * tx;
+        let bot = self.image.get(x0, y1) * (1.0 - tx) + self.image.get(x1, y1) * tx;
+        let v = (top * (1.0 - ty) + bot * ty) * self.scale;
+        if crate::math::is_finite3(v) {
+            v.max(Spectrum::ZERO)
+        } else {
+            Spectrum::ZERO
+        }
+    }
+
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let (j, pj, uy) = self.rows.sample_discrete(u.y);
+        let (i, pi, ux) = self.row_cdfs[j].sample_discrete(u.x);
+        let (w, h) = (self.image.width as f32, self.image.height as f32);
+        let uv = Vec2::new((i as f32 + ux) / w, (j as f32 + uy) / h);
+        let pdf_uv = pj * pi * w * h;
+        let theta = uv.y * PI;
+        let phi = uv.x * 2.0 * PI;
+        let sin_t = theta.sin();
+        if sin_t <= 0.0 || pdf_uv <= 0.0 {
+            return None;
+        }
+        let local = Vec3::new(sin_t * phi.sin(), theta.cos(), -sin_t * phi.cos());
+        let d = (self.to_world * local).normalize();
+        Some((d, pdf_uv / (2.0 * PI * PI * sin_t)))
+    }
+
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        let uv = self.direction_to_uv(d);
+        let (w, h) = (self.image.width, self.image.height);
+        let i = ((uv.x * w as f32) as usize).min(w - 1);
+        let j = ((uv.y * h as f32) as usize).min(h - 1);
+        let pdf_uv = self.rows.discrete_pdf(j) * self.row_cdfs[j].discrete_pdf(i) * (w * h) as f32;
+        let sin_t = (uv.y * PI).sin();
+        if sin_t <= 0.0 {
+            return 0.0;
+        }
+        pdf_uv / (2.0 * PI * PI * sin_t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    #[test]
+    fn envmap_sampling_matches_its_pdf_and_integrates_radiance() {
+        // A small map with a bright spot and a dark band.
+        let (w, h) = (16, 8);
+        let pixels = (0..w * h)
+            .map(|k| {
+                let (x, y) = (k % w, k / w);
+                if (x, y) == (3, 2) {
+                    Spectrum::splat(50.0)
+                } else if y == 6 {
+                    Spectrum::ZERO
+                } else {
+                    Spectrum::splat(1.0)
+                }
+            })
+            .collect();
+        let env = EnvMap::new(
+            RgbImage {
+                width: w,
+                height: h,
+                pixels,
+            },
+            1.0,
+            Mat3::from_rotation_y(0.3),
+        );
+        let mut rng = Rng::new(9, 0);
+        let mut est_is = 0.0f64;
+        let mut est_uniform = 0.0f64;
+        let n = 200_000;
+        for _ in 0..n {
+            if let Some((d, pdf)) = env.sample(rng.next_2d()) {
+                assert!(
+                    (env.pdf(d) - pdf).abs() <= 1e-3 * pdf,
+                    "{} vs {pdf}",
+                    env.pdf(d)
+                );
+                est_is += (luminance(env.eval(d)) / pdf) as f64;
+            }
+            let d = square_to_uniform_sphere(rng.next_2d());
+            est_uniform += (luminance(env.eval(d)) * 4.0 * PI) as f64;
+        }
+        let (a, b) = (est_is / n as f64, est_uniform / n as f64);
+        assert!((a - b).abs() < 0.02 * b, "importance {a} vs uniform {b}");
+    }
+}

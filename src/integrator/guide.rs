@@ -1,0 +1,107 @@
+//! The interface between the path loop and a directional guide. Plain path
+//! tracing, radiance guiding and product guiding all run the same loop
+//! (`path.rs`); they differ only in the [`Guide`] they plug in.
+
+use crate::bsdf::Bsdf;
+use crate::math::{Frame, Spectrum};
+use glam::{Vec2, Vec3};
+
+/// What a guide may look at when it builds a vertex's sampling distribution.
+pub struct VertexContext<'a> {
+    pub p: Vec3,
+    pub ng: Vec3,
+    pub frame: &'a Frame,
+    pub wo_local: Vec3,
+    pub bsdf: &'a Bsdf,
+}
+
+/// A per-vertex guiding distribution over world directions, mixed with BSDF
+/// sampling by one-sample MIS: p = (1 − α)·p_guide + α·p_bsdf.
+pub trait GuideVertex {
+    /// α, the probability of BSDF sampling.
+    fn bsdf_fraction(&self) -> f32;
+    /// A world direction and its solid-angle pdf under the guide.
+    fn sample(&mut self, u: Vec2) -> Option<(Vec3, f32)>;
+    /// Solid-angle pdf under the guide of a world direction.
+    fn pdf(&mut self, dir: Vec3) -> f32;
+    /// The guide's estimate of the radiance reflected towards wo (for
+    /// adjoint-driven Russian roulette), if it has one.
+    fn adjoint_estimate(&self) -> Option<f32> {
+        None
+    }
+}
+
+/// One scattering vertex of a finished path, as the learning step needs it.
+#[derive(Clone, Copy, Debug)]
+pub struct PathVertex {
+    pub p: Vec3,
+    pub dir: Vec3,
+    /// Radiance arriving at the vertex from `dir` (filled in as the path
+    /// continues): the sum of contributions after the vertex divided by the
+    /// throughput up to and including the vertex's sampling weight.
+    pub radiance: Spectrum,
+    /// Throughput at the vertex including its own sampling weight f·cos/p.
+    pub throughput: Spectrum,
+    /// f·cos of the sampled direction (for the product learning signal).
+    pub bsdf_value: Spectrum,
+    pub pdf_mix: f32,
+    pub pdf_bsdf: f32,
+    pub pdf_guide: f32,
+    pub bsdf_fraction: f32,
+    /// False for delta vertices, which are never recorded.
+    pub guided: bool,
+}
+
+pub trait Guide: Sync {
+    type Vertex<'a>: GuideVertex
+    where
+        Self: 'a;
+    /// Per-thread storage for learning records.
+    type Recorder: Send;
+
+    /// The sampling distribution at a non-delta vertex; `None` means BSDF
+    /// sampling only.
+    fn vertex<'a>(&'a self, ctx: &VertexContext) -> Option<Self::Vertex<'a>>;
+
+    fn new_recorder(&self) -> Self::Recorder;
+
+    /// True while the guide is learning and wants finished paths.
+    fn learning(&self) -> bool;
+
+    /// Records a finished path's vertices.
+    fn record(&self, recorder: &mut Self::Recorder, vertices: &[PathVertex]);
+}
+
+/// Plain path tracing: no guide.
+pub struct NoGuide;
+
+pub enum Never {}
+
+impl GuideVertex for Never {
+    fn bsdf_fraction(&self) -> f32 {
+        match *self {}
+    }
+    fn sample(&mut self, _u: Vec2) -> Option<(Vec3, f32)> {
+        match *self {}
+    }
+    fn pdf(&mut self, _dir: Vec3) -> f32 {
+        match *self {}
+    }
+}
+
+impl Guide for NoGuide {
+    type Vertex<'a> = Never;
+    type Recorder = ();
+
+    fn vertex<'a>(&'a self, _ctx: &VertexContext) -> Option<Never> {
+        None
+    }
+
+    fn new_recorder(&self) {}
+
+    fn learning(&self) -> bool {
+        false
+    }
+
+    fn record(&self, _recorder: &mut (), _vertices: &[PathVertex]) {}
+}

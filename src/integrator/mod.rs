@@ -1,0 +1,100 @@
+//! Rendering: passes of one sample per pixel over the whole image, in
+//! parallel over blocks of rows, reproducible for a seed (each pixel of each
+//! pass owns its own random stream, so the image does not depend on the
+//! thread count or scheduling).
+
+pub mod guide;
+pub mod path;
+pub mod stats;
+
+use crate::film::image::Film;
+use crate::math::Spectrum;
+use crate::sampling::Rng;
+use crate::scene::Scene;
+use glam::Vec2;
+use guide::Guide;
+use path::{PathScratch, PathSettings, trace_path};
+use rayon::prelude::*;
+use stats::RenderCounters;
+
+/// Rows per parallel work item: small enough to balance 2–64 threads, large
+/// enough to amortise scheduling and keep record buffers few.
+const ROWS_PER_BLOCK: usize = 4;
+
+/// The result of rendering some passes.
+pub struct PassOutput<R> {
+    pub film: Film,
+    pub counters: RenderCounters,
+    /// Learning records, one buffer per row block, in image order.
+    pub recorders: Vec<R>,
+}
+
+/// Mixes a seed and a pass index into a stream seed (SplitMix64 finaliser).
+fn pass_seed(seed: u64, pass: u64) -> u64 {
+    let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15u64.wrapping_mul(pass + 1));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Renders one pass (1 spp) with global pass index `pass`. Must run inside
+/// the caller's rayon pool.
+pub fn render_pass<G: Guide>(
+    scene: &Scene,
+    guide: &G,
+    settings: &PathSettings,
+    seed: u64,
+    pass: u64,
+) -> PassOutput<G::Recorder> {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let stream_seed = pass_seed(seed, pass);
+    let mut pixels = vec![Spectrum::ZERO; w * h];
+    let results: Vec<(RenderCounters, G::Recorder)> = pixels
+        .par_chunks_mut(ROWS_PER_BLOCK * w)
+        .enumerate()
+        .map_init(PathScratch::default, |scratch, (block, out)| {
+            let mut counters = RenderCounters::default();
+            let mut recorder = guide.new_recorder();
+            for (k, px) in out.iter_mut().enumerate() {
+                let index = block * ROWS_PER_BLOCK * w + k;
+                let (x, y) = (index % w, index / w);
+                let mut rng = Rng::new(stream_seed, index as u64);
+                let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+                let (o, d) = scene.camera.ray(film_pos);
+                *px = trace_path(
+                    scene,
+                    guide,
+                    settings,
+                    o,
+                    d,
+                    &mut rng,
+                    &mut counters,
+                    scratch,
+                    &mut recorder,
+                );
+            }
+            (counters, recorder)
+        })
+        .collect();
+    let mut film = Film::new(w, h);
+    film.add_pass(&pixels);
+    let mut counters = RenderCounters::default();
+    let mut recorders = Vec::with_capacity(results.len());
+    for (c, r) in results {
+        counters.add(&c);
+        recorders.push(r);
+    }
+    PassOutput {
+        film,
+        counters,
+        recorders,
+    }
+}
+
+/// Builds the thread pool a render runs in (0 = all cores).
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, String> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))
+}

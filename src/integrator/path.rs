@@ -1,0 +1,289 @@
+//! The one path loop shared by every method: unidirectional path tracing
+//! with optional next-event estimation (MIS, power heuristic), Mitsuba's
+//! `max_depth` semantics, Russian roulette, and an optional guide mixed with
+//! BSDF sampling by one-sample MIS.
+
+use super::guide::{Guide, GuideVertex, PathVertex, VertexContext};
+use super::stats::RenderCounters;
+use crate::math::{Spectrum, is_finite3};
+use crate::sampling::{Rng, power_heuristic};
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// How paths are terminated early.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum RouletteMode {
+    /// Mitsuba's rule: from depth 5 on, survive with min(max(throughput)·η², 0.95).
+    Classic,
+    /// Adjoint-driven (Vorba & Křivánek 2016), needs a guide with adjoint estimates.
+    Adrrs,
+    Off,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct PathSettings {
+    pub nee: bool,
+    /// Maximum number of segments (camera ray included), `None` = unlimited.
+    pub max_depth: Option<u32>,
+    pub roulette: RouletteMode,
+}
+
+/// Depth from which classic roulette applies (Mitsuba's `rr_depth`).
+const RR_DEPTH: u32 = 5;
+
+/// Per-thread scratch reused across paths.
+pub struct PathScratch {
+    pub vertices: Vec<PathVertex>,
+    /// (number of vertices that precede the contribution, contribution)
+    contributions: Vec<(usize, Spectrum)>,
+}
+
+impl Default for PathScratch {
+    fn default() -> Self {
+        PathScratch {
+            vertices: Vec::with_capacity(16),
+            contributions: Vec::with_capacity(16),
+        }
+    }
+}
+
+/// Offsets a ray origin off a surface, to the side the ray leaves towards.
+#[inline]
+pub fn spawn_origin(scene: &Scene, p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+    let eps = scene.ray_epsilon(p);
+    if ng.dot(dir) >= 0.0 {
+        p + ng * eps
+    } else {
+        p - ng * eps
+    }
+}
+
+/// Estimates the radiance arriving at the camera along (o, d).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_path<G: Guide>(
+    scene: &Scene,
+    guide: &G,
+    settings: &PathSettings,
+    mut o: Vec3,
+    mut d: Vec3,
+    rng: &mut Rng,
+    counters: &mut RenderCounters,
+    scratch: &mut PathScratch,
+    recorder: &mut G::Recorder,
+) -> Spectrum {
+    let learning = guide.learning();
+    scratch.vertices.clear();
+    scratch.contributions.clear();
+    let max_depth = settings.max_depth.unwrap_or(u32::MAX);
+    let mut radiance = Spectrum::ZERO;
+    let mut throughput = Spectrum::ONE;
+    // State of the previous scattering event, for MIS on emitter hits.
+    let mut prev_pdf = 0.0f32;
+    let mut prev_delta = true;
+    let mut prev_p = o;
+    let mut segments = 1u32;
+    let mut eta_scale = 1.0f32;
+    counters.paths += 1;
+
+    let add = |c: Spectrum, scratch: &mut PathScratch, radiance: &mut Spectrum| {
+        *radiance += c;
+        if learning {
+            scratch.contributions.push((scratch.vertices.len(), c));
+        }
+    };
+
+    loop {
+        counters.rays += 1;
+        let Some(it) = scene.intersect(o, d, f32::INFINITY) else {
+            if !scene.lights.is_empty() {
+                let le = scene.lights.eval_infinite(d);
+                if le != Spectrum::ZERO {
+                    let w = if prev_delta || !settings.nee {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, scene.lights.pdf_infinite(d))
+                    };
+                    add(throughput * le * w, scratch, &mut radiance);
+                }
+            }
+            break;
+        };
+
+        // Emission of the surface we hit.
+        if let Some(light) = scene.shapes[it.shape as usize].light {
+            let le = scene.lights.emitted(light, it.frame.n, -d);
+            if le != Spectrum::ZERO {
+                let w = if prev_delta || !settings.nee {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, scene.lights.pdf_area(light, prev_p, it.p, it.ng))
+                };
+                add(throughput * le * w, scratch, &mut radiance);
+            }
+        }
+        if segments >= max_depth {
+            break;
+        }
+
+        let bsdf = scene.material_of(&it).at(it.uv);
+        let wo = it.frame.to_local(-d);
+        let smooth_only = bsdf.has_smooth_lobes_only();
+
+        // Next-event estimation at vertices with a non-delta component.
+        let mut guide_vertex = None;
+        if !smooth_only {
+            guide_vertex = guide.vertex(&VertexContext {
+                p: it.p,
+                ng: it.ng,
+                frame: &it.frame,
+                wo_local: wo,
+                bsdf: &bsdf,
+            });
+        }
+        if settings.nee && !smooth_only && !scene.lights.is_empty() {
+            let u_sel = rng.next_f32();
+            let u_light = rng.next_2d();
+            if let Some(ls) = scene.lights.sample(it.p, u_sel, u_light) {
+                let wi = it.frame.to_local(ls.wi);
+                let f = bsdf.eval(wo, wi);
+                if f != Spectrum::ZERO {
+                    let origin = spawn_origin(scene, it.p, it.ng, ls.wi);
+                    let tmax = if ls.dist.is_finite() {
+                        ls.dist * (1.0 - 1e-4) - scene.ray_epsilon(it.p)
+                    } else {
+                        f32::INFINITY
+                    };
+                    counters.shadow_rays += 1;
+                    if tmax > 0.0 && !scene.occluded(origin, ls.wi, tmax) {
+                        let mut pdf_scatter = bsdf.pdf(wo, wi);
+                        if let Some(g) = guide_vertex.as_mut() {
+                            let a = g.bsdf_fraction();
+                            pdf_scatter = a * pdf_scatter + (1.0 - a) * g.pdf(ls.wi);
+                        }
+                        let w = power_heuristic(ls.pdf, pdf_scatter);
+                        add(
+                            throughput * f * ls.radiance * (w / ls.pdf),
+                            scratch,
+                            &mut radiance,
+                        );
+                    }
+                }
+            }
+        }
+
+        // Choose the next direction: guide or BSDF, one-sample MIS.
+        let u_choice = rng.next_f32();
+        let u_lobe = rng.next_f32();
+        let u_dir = rng.next_2d();
+        let (wi_world, weight, pdf_mix, is_delta, eta, pdf_bsdf, pdf_guide, alpha, f_value);
+        match guide_vertex.as_mut() {
+            Some(g) if u_choice >= g.bsdf_fraction() => {
+                let a = g.bsdf_fraction();
+                let Some((dir, pg)) = g.sample(u_dir) else {
+                    counters.invalid_scattering += 1;
+                    break;
+                };
+                let wi = it.frame.to_local(dir);
+                let f = bsdf.eval(wo, wi);
+                let pb = bsdf.pdf(wo, wi);
+                let p = a * pb + (1.0 - a) * pg;
+                if !(p > 0.0 && p.is_finite()) {
+                    counters.invalid_scattering += 1;
+                    break;
+                }
+                if f == Spectrum::ZERO {
+                    // Guided into a direction the BSDF does not reflect to
+                    // (e.g. below the horizon): a valid zero-valued sample.
+                    counters.guided_below_horizon += (wi.z * wo.z <= 0.0) as u64;
+                    break;
+                }
+                (wi_world, weight, pdf_mix, is_delta, eta) = (dir, f / p, p, false, 1.0);
+                (pdf_bsdf, pdf_guide, alpha, f_value) = (pb, pg, a, f);
+            }
+            _ => {
+                let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else {
+                    break;
+                };
+                if !(s.pdf > 0.0 && s.pdf.is_finite() && is_finite3(s.weight)) {
+                    counters.invalid_scattering += 1;
+                    break;
+                }
+                let dir = it.frame.to_world(s.wi);
+                if s.is_delta {
+                    (wi_world, weight, pdf_mix, is_delta, eta) =
+                        (dir, s.weight, s.pdf, true, s.eta);
+                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, 1.0, s.weight);
+                } else if let Some(g) = guide_vertex.as_mut() {
+                    let a = g.bsdf_fraction();
+                    let pg = g.pdf(dir);
+                    let p = a * s.pdf + (1.0 - a) * pg;
+                    let f = s.weight * s.pdf;
+                    (wi_world, weight, pdf_mix, is_delta, eta) = (dir, f / p, p, false, s.eta);
+                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, pg, a, f);
+                } else {
+                    (wi_world, weight, pdf_mix, is_delta, eta) =
+                        (dir, s.weight, s.pdf, false, s.eta);
+                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, 1.0, s.weight * s.pdf);
+                }
+            }
+        }
+        throughput *= weight;
+        eta_scale *= eta * eta;
+        if learning {
+            scratch.vertices.push(PathVertex {
+                p: it.p,
+                dir: wi_world,
+                radiance: Spectrum::ZERO,
+                throughput,
+                bsdf_value: f_value,
+                pdf_mix,
+                pdf_bsdf,
+                pdf_guide,
+                bsdf_fraction: alpha,
+                guided: !is_delta,
+            });
+        }
+        if throughput == Spectrum::ZERO {
+            break;
+        }
+        prev_pdf = pdf_mix;
+        prev_delta = is_delta;
+        prev_p = it.p;
+        o = spawn_origin(scene, it.p, it.ng, wi_world);
+        d = wi_world;
+        segments += 1;
+
+        // Russian roulette.
+        match settings.roulette {
+            RouletteMode::Off => {}
+            RouletteMode::Classic | RouletteMode::Adrrs => {
+                if segments > RR_DEPTH {
+                    let q = (throughput.max_element() * eta_scale).min(0.95);
+                    if !(rng.next_f32() < q) {
+                        break;
+                    }
+                    throughput /= q;
+                }
+            }
+        }
+    }
+
+    if !is_finite3(radiance) || radiance.min_element() < 0.0 {
+        counters.nonfinite_samples += 1;
+        return Spectrum::ZERO;
+    }
+    if learning && !scratch.vertices.is_empty() {
+        for &(count, c) in &scratch.contributions {
+            for v in &mut scratch.vertices[..count] {
+                let t = v.throughput;
+                v.radiance += Spectrum::new(
+                    if t.x > 0.0 { c.x / t.x } else { 0.0 },
+                    if t.y > 0.0 { c.y / t.y } else { 0.0 },
+                    if t.z > 0.0 { c.z / t.z } else { 0.0 },
+                );
+            }
+        }
+        guide.record(recorder, &scratch.vertices);
+    }
+    radiance
+}

@@ -1,0 +1,28 @@
+//! Counters gathered per thread and summed: work done and every guard that
+//! fired. A guard that fires is never silent: its count reaches the stats.
+
+use serde::Serialize;
+
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
+pub struct RenderCounters {
+    pub paths: u64,
+    pub rays: u64,
+    pub shadow_rays: u64,
+    /// Path contributions that were NaN/Inf/negative and were replaced by zero.
+    pub nonfinite_samples: u64,
+    /// BSDF or guide samples with a non-finite or non-positive pdf/weight.
+    pub invalid_scattering: u64,
+    /// Guided samples whose direction fell on the wrong side of the surface.
+    pub guided_below_horizon: u64,
+}
+
+impl RenderCounters {
+    pub fn add(&mut self, o: &RenderCounters) {
+        self.paths += o.paths;
+        self.rays += o.rays;
+        self.shadow_rays += o.shadow_rays;
+        self.nonfinite_samples += o.nonfinite_samples;
+        self.invalid_scattering += o.invalid_scattering;
+        self.guided_below_horizon += o.guided_below_horizon;
+    }
+}

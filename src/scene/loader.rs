@@ -1,0 +1,743 @@
+//! Walks a Mitsuba 3 XML scene (the subset of `../shared/scenes/README.md`)
+//! and builds a [`Scene`]. Unsupported plugins, wrong property types, missing
+//! files, non-finite numbers and degenerate geometry are errors naming the
+//! file, line and element; elements that can safely be ignored are warnings.
+
+use super::error::SceneError;
+use super::obj::{ObjOptions, load_obj};
+use super::shapes::{ShapeTriangle, cube, rectangle};
+use super::xml::{Properties, XmlContext};
+use super::{Scene, Shape, TriangleShading};
+use crate::accel::{Accel, PrimGeom};
+use crate::bsdf::{ConductorFresnel, Material, MaterialKind};
+use crate::camera::{Camera, FovAxis};
+use crate::emitter::{EmitterTriangle, EnvMap, Light, Lights};
+use crate::math::Spectrum;
+use crate::texture::{RgbImage, Texture, load_image};
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use roxmltree::Node;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Loads and validates a scene file.
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SceneError::new(path, 0, "scene", format!("cannot read scene file: {e}")))?;
+    let doc = roxmltree::Document::parse(&text).map_err(|e| {
+        let pos = e.pos();
+        SceneError::new(path, pos.row, "xml", format!("malformed XML: {e}"))
+    })?;
+    let ctx = XmlContext::new(path, &doc);
+    let mut builder = Builder::new(&ctx);
+    builder.scene(doc.root_element())?;
+    builder.finish(path)
+}
+
+struct PendingShape {
+    material: u32,
+    triangles: Vec<ShapeTriangle>,
+    sphere: Option<(Vec3, f32, bool)>,
+    emitter: Option<Spectrum>,
+}
+
+struct Builder<'a> {
+    ctx: &'a XmlContext<'a>,
+    camera: Option<Camera>,
+    max_depth: Option<u32>,
+    materials: Vec<Material>,
+    named_materials: HashMap<String, u32>,
+    shapes: Vec<PendingShape>,
+    infinite_lights: Vec<Light>,
+    image_cache: HashMap<(PathBuf, bool), Arc<RgbImage>>,
+    has_integrator: bool,
+}
+
+impl<'a> Builder<'a> {
+    fn new(ctx: &'a XmlContext<'a>) -> Self {
+        Builder {
+            ctx,
+            camera: None,
+            max_depth: None,
+            materials: Vec::new(),
+            named_materials: HashMap::new(),
+            shapes: Vec::new(),
+            infinite_lights: Vec::new(),
+            image_cache: HashMap::new(),
+            has_integrator: false,
+        }
+    }
+
+    fn scene(&mut self, root: Node) -> Result<(), SceneError> {
+        let ctx = self.ctx;
+        if root.tag_name().name() != "scene" {
+            return Err(ctx.error(root, "the root element must be <scene>"));
+        }
+        match root.attribute("version") {
+            Some(v) if v.starts_with("3.") => {}
+            Some(v) => ctx.warn(
+                root,
+                format!("scene version {v}; ltcguide reads the Mitsuba 3 subset"),
+            ),
+            None => ctx.warn(root, "no version attribute; assuming 3.0.0"),
+        }
+        for child in root.children().filter(|c| c.is_element()) {
+            match child.tag_name().name() {
+                "integrator" => self.integrator(child)?,
+                "sensor" => {
+                    if self.camera.is_some() {
+                        return Err(ctx.error(child, "more than one <sensor>"));
+                    }
+                    self.camera = Some(self.sensor(child)?);
+                }
+                "bsdf" => {
+                    let id = ctx.required_attr(child, "id")?.to_string();
+                    if self.named_materials.contains_key(&id) {
+                        return Err(ctx.error(child, format!("duplicate bsdf id '{id}'")));
+                    }
+                    let m = self.bsdf(child)?;
+                    self.materials.push(m);
+                    self.named_materials
+                        .insert(id, self.materials.len() as u32 - 1);
+                }
+                "shape" => self.shape(child)?,
+                "emitter" => self.top_level_emitter(child)?,
+                other => return Err(ctx.error(child, format!("unsupported element <{other}>"))),
+            }
+        }
+        if self.camera.is_none() {
+            return Err(ctx.error(root, "the scene has no <sensor>"));
+        }
+        if self.shapes.is_empty() && self.infinite_lights.is_empty() {
+            return Err(ctx.error(root, "the scene is empty: no shapes and no emitters"));
+        }
+        if self.infinite_lights.is_empty() && self.shapes.iter().all(|s| s.emitter.is_none()) {
+            return Err(ctx.error(root, "the scene has no emitter: every image would be black"));
+        }
+        Ok(())
+    }
+
+    fn integrator(&mut self, node: Node) -> Result<(), SceneError> {
+        let ctx = self.ctx;
+        if self.has_integrator {
+            return Err(ctx.error(node, "more than one <integrator>"));
+        }
+        self.has_integrator = true;
+        let ty = ctx.required_attr(node, "type")?;
+        if ty != "path" {
+            ctx.warn(node, format!("integrator type '{ty}' ignored: ltcguide chooses its method on the command line"));
+        }
+        let props = Properties::new(ctx, node);
+        let depth = props.integer("max_depth", -1)?;
+        self.max_depth = match depth {
+            -1 => None,
+            d if d >= 1 && d <= u32::MAX as i64 => Some(d as u32),
+            d => {
+                return Err(ctx.error(
+                    node,
+                    format!("max_depth must be -1 (unlimited) or ≥ 1, got {d}"),
+                ));
+            }
+        };
+        props.warn_unused();
+        Ok(())
+    }
+
+    fn sensor(&mut self, node: Node) -> Result<Camera, SceneError> {
+        let ctx = self.ctx;
+        let ty = ctx.required_attr(node, "type")?;
+        if ty != "perspective" {
+            return Err(ctx.error(
+                node,
+                format!("unsupported sensor type '{ty}' (only 'perspective')"),
+            ));
+        }
+        let props = Properties::new(ctx, node);
+        // Mitsuba's default is a 50 mm lens on 36 mm film.
+        let fov = props.float("fov", (2.0 * (18.0f32 / 50.0).atan()).to_degrees())?;
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(ctx.error(node, format!("fov must be in (0, 180) degrees, got {fov}")));
+        }
+        let axis = match props.string("fov_axis")? {
+            None => FovAxis::X,
+            Some((s, n)) => match s.as_str() {
+                "x" => FovAxis::X,
+                "y" => FovAxis::Y,
+                "smaller" => FovAxis::Smaller,
+                "larger" => FovAxis::Larger,
+                other => return Err(ctx.error(n, format!("unknown fov_axis '{other}'"))),
+            },
+        };
+        let to_world = props
+            .transform("to_world")?
+            .map(|t| t.0)
+            .unwrap_or(Mat4::IDENTITY);
+        props.warn_unused();
+        let (mut width, mut height) = (768usize, 576usize);
+        for child in node.children().filter(|c| c.is_element()) {
+            match child.tag_name().name() {
+                "film" => {
+                    let ty = ctx.required_attr(child, "type")?;
+                    if ty != "hdrfilm" {
+                        return Err(ctx.error(
+                            child,
+                            format!("unsupported film type '{ty}' (only 'hdrfilm')"),
+                        ));
+                    }
+                    let fp = Properties::new(ctx, child);
+                    let w = fp.integer("width", 768)?;
+                    let h = fp.integer("height", 576)?;
+                    if !(1..=65536).contains(&w) || !(1..=65536).contains(&h) {
+                        return Err(ctx.error(child, format!("film size {w}×{h} is out of range")));
+                    }
+                    (width, height) = (w as usize, h as usize);
+                    fp.warn_unused();
+                    for f in child
+                        .children()
+                        .filter(|c| c.is_element() && c.tag_name().name() == "rfilter")
+                    {
+                        ctx.warn(f, "reconstruction filter ignored: ltcguide uses a box filter, like the pack references");
+                    }
+                }
+                "sampler" => {
+                    // The sample count is informational: spp comes from the command line.
+                    let sp = Properties::new(ctx, child);
+                    sp.integer("sample_count", 4)?;
+                    sp.warn_unused();
+                }
+                tag if super::xml::PROPERTY_TAGS.contains(&tag) => {}
+                other => {
+                    return Err(
+                        ctx.error(child, format!("unsupported element <{other}> in <sensor>"))
+                    );
+                }
+            }
+        }
+        Ok(Camera::new(to_world, fov, axis, width, height))
+    }
+
+    fn spectrum_or_texture(
+        &mut self,
+        props: &Properties,
+        name: &str,
+        default: f32,
+    ) -> Result<Texture, SceneError> {
+        let ctx = self.ctx;
+        let Some(node) = props.rgb_or_texture(name) else {
+            return Ok(Texture::Constant(Spectrum::splat(default)));
+        };
+        let value = match node.tag_name().name() {
+            "rgb" => Texture::Constant(ctx.vec3_attr(node, "value")?),
+            "float" => Texture::Constant(Spectrum::splat(
+                ctx.number(node, ctx.required_attr(node, "value")?)?,
+            )),
+            "texture" => self.texture(node)?,
+            other => {
+                return Err(ctx.error(
+                    node,
+                    format!("property '{name}' must be <rgb>, <float> or <texture>, not <{other}>"),
+                ));
+            }
+        };
+        if let Texture::Constant(c) = value {
+            if c.min_element() < 0.0 {
+                return Err(ctx.error(node, format!("'{name}' must not be negative")));
+            }
+        }
+        Ok(value)
+    }
+
+    fn texture(&mut self, node: Node) -> Result<Texture, SceneError> {
+        let ctx = self.ctx;
+        let ty = ctx.required_attr(node, "type")?;
+        let props = Properties::new(ctx, node);
+        let tex = match ty {
+            "bitmap" => {
+                let (file, fnode) = props
+                    .string("filename")?
+                    .ok_or_else(|| ctx.error(node, "bitmap needs a 'filename'"))?;
+                let raw = props.boolean("raw", false)?;
+                if let Some((f, n)) = props.string("filter_type")? {
+                    if f != "bilinear" {
+                        return Err(ctx.error(
+                            n,
+                            format!("unsupported filter_type '{f}' (only 'bilinear')"),
+                        ));
+                    }
+                }
+                let path = ctx.resolve_path(fnode, &file)?;
+                Texture::Bitmap(self.image(&path, raw, fnode)?)
+            }
+            "checkerboard" => {
+                let c0 = props.rgb("color0")?.unwrap_or(Spectrum::splat(0.4));
+                let c1 = props.rgb("color1")?.unwrap_or(Spectrum::splat(0.2));
+                if c0.min_element() < 0.0 || c1.min_element() < 0.0 {
+                    return Err(ctx.error(node, "checkerboard colours must not be negative"));
+                }
+                let scale = match props.transform("to_uv")? {
+                    None => Vec2::ONE,
+                    Some((m, n)) => {
+                        // The subset allows only a scale here.
+                        let s = Vec2::new(m.x_axis.x, m.y_axis.y);
+                        if m.x_axis.y != 0.0
+                            || m.y_axis.x != 0.0
+                            || m.w_axis.x != 0.0
+                            || m.w_axis.y != 0.0
+                        {
+                            return Err(ctx.error(n, "checkerboard to_uv must be a <scale>"));
+                        }
+                        s
+                    }
+                };
+                Texture::Checkerboard {
+                    color0: c0,
+                    color1: c1,
+                    scale,
+                }
+            }
+            other => return Err(ctx.error(node, format!("unsupported texture type '{other}'"))),
+        };
+        props.warn_unused();
+        Ok(tex)
+    }
+
+    fn image(&mut self, path: &Path, raw: bool, node: Node) -> Result<Arc<RgbImage>, SceneError> {
+        let key = (path.to_path_buf(), raw);
+        if let Some(img) = self.image_cache.get(&key) {
+            return Ok(img.clone());
+        }
+        if !path.exists() {
+            return Err(self
+                .ctx
+                .error(node, format!("file not found: '{}'", path.display())));
+        }
+        let img = load_image(path, raw).map_err(|e| self.ctx.error(node, e))?;
+        let bad = img.non_finite_pixels();
+        if bad > 0 {
+            return Err(self.ctx.error(
+                node,
+                format!(
+                    "image '{}' has {bad} pixels with NaN or Inf",
+                    path.display()
+                ),
+            ));
+        }
+        if img.pixels.iter().any(|p| p.min_element() < 0.0) {
+            return Err(self.ctx.error(
+                node,
+                format!("image '{}' has negative pixels", path.display()),
+            ));
+        }
+        let img = Arc::new(img);
+        self.image_cache.insert(key, img.clone());
+        Ok(img)
+    }
+
+    fn bsdf(&mut self, node: Node) -> Result<Material, SceneError> {
+        let ctx = self.ctx;
+        let ty = ctx.required_attr(node, "type")?;
+        if ty == "twosided" {
+            let inner: Vec<Node> = node.children().filter(|c| c.is_element()).collect();
+            if inner.len() != 1 || inner[0].tag_name().name() != "bsdf" {
+                return Err(ctx.error(node, "twosided must wrap exactly one inline <bsdf>"));
+            }
+            let mut m = self.bsdf(inner[0])?;
+            if matches!(
+                m.kind,
+                MaterialKind::Dielectric { .. } | MaterialKind::ThinDielectric { .. }
+            ) {
+                return Err(ctx.error(inner[0], "twosided cannot wrap a dielectric"));
+            }
+            if m.two_sided {
+                return Err(ctx.error(inner[0], "nested twosided"));
+            }
+            m.two_sided = true;
+            return Ok(m);
+        }
+        let props = Properties::new(ctx, node);
+        let ggx_alpha = |props: &Properties| -> Result<f32, SceneError> {
+            if let Some((d, n)) = props.string("distribution")? {
+                if d != "ggx" {
+                    return Err(ctx.error(
+                        n,
+                        format!("unsupported microfacet distribution '{d}' (only 'ggx')"),
+                    ));
+                }
+            }
+            if props.float_opt("alpha_u")?.is_some() {
+                return Err(ctx.error(node, "anisotropic roughness is not supported; use 'alpha'"));
+            }
+            props.float("alpha", 0.1)
+        };
+        let eta = |props: &Properties, int_default: f32| -> Result<f32, SceneError> {
+            let int_ior = props.float("int_ior", int_default)?;
+            let ext_ior = props.float("ext_ior", 1.000277)?;
+            if !(int_ior > 0.0 && ext_ior > 0.0) {
+                return Err(ctx.error(node, "IORs must be positive"));
+            }
+            Ok(int_ior / ext_ior)
+        };
+        let conductor = |props: &Properties| -> Result<ConductorFresnel, SceneError> {
+            let material = props.string("material")?;
+            let eta = props.rgb("eta")?;
+            let k = props.rgb("k")?;
+            match (material, eta, k) {
+                (Some((m, n)), _, _) if m != "none" => Err(ctx.error(
+                    n,
+                    format!("conductor preset '{m}' is not supported; give 'eta' and 'k' or material 'none'"),
+                )),
+                (Some(_), None, None) => Ok(ConductorFresnel::None),
+                (None, Some(eta), Some(k)) => {
+                    if eta.min_element() <= 0.0 || k.min_element() < 0.0 {
+                        return Err(ctx.error(node, "conductor 'eta' must be positive and 'k' non-negative"));
+                    }
+                    Ok(ConductorFresnel::Complex { eta, k })
+                }
+                (None, None, None) => Ok(ConductorFresnel::None),
+                _ => Err(ctx.error(node, "a conductor needs both 'eta' and 'k', or material 'none'")),
+            }
+        };
+        let kind = match ty {
+            "diffuse" => MaterialKind::Diffuse {
+                reflectance: self.spectrum_or_texture(&props, "reflectance", 0.5)?,
+            },
+            "roughconductor" => MaterialKind::RoughConductor {
+                alpha: ggx_alpha(&props)?,
+                fresnel: conductor(&props)?,
+                specular_reflectance: self.spectrum_or_texture(
+                    &props,
+                    "specular_reflectance",
+                    1.0,
+                )?,
+            },
+            "conductor" => MaterialKind::Conductor {
+                fresnel: conductor(&props)?,
+                specular_reflectance: self.spectrum_or_texture(
+                    &props,
+                    "specular_reflectance",
+                    1.0,
+                )?,
+            },
+            "roughplastic" | "plastic" => {
+                if props.boolean("nonlinear", false)? {
+                    return Err(ctx.error(node, "nonlinear=true is not supported"));
+                }
+                let diffuse = self.spectrum_or_texture(&props, "diffuse_reflectance", 0.5)?;
+                let eta = eta(&props, 1.49)?;
+                if ty == "plastic" {
+                    MaterialKind::Plastic {
+                        eta,
+                        diffuse_reflectance: diffuse,
+                    }
+                } else {
+                    MaterialKind::RoughPlastic {
+                        alpha: ggx_alpha(&props)?,
+                        eta,
+                        diffuse_reflectance: diffuse,
+                    }
+                }
+            }
+            "dielectric" => MaterialKind::Dielectric {
+                eta: eta(&props, 1.5046)?,
+            },
+            "thindielectric" => MaterialKind::ThinDielectric {
+                eta: eta(&props, 1.5046)?,
+            },
+            other => return Err(ctx.error(node, format!("unsupported bsdf type '{other}'"))),
+        };
+        props.warn_unused();
+        for child in node.children().filter(|c| c.is_element()) {
+            let tag = child.tag_name().name();
+            if !super::xml::PROPERTY_TAGS.contains(&tag) {
+                return Err(ctx.error(child, format!("unexpected <{tag}> inside a bsdf")));
+            }
+        }
+        Material::new(kind, false).map_err(|e| ctx.error(node, e))
+    }
+
+    fn shape(&mut self, node: Node) -> Result<(), SceneError> {
+        let ctx = self.ctx;
+        let ty = ctx.required_attr(node, "type")?;
+        let props = Properties::new(ctx, node);
+        let to_world = props.transform("to_world")?;
+        let flip = props.boolean("flip_normals", false)?;
+        let mut material = None;
+        let mut emitter = None;
+        for child in node.children().filter(|c| c.is_element()) {
+            match child.tag_name().name() {
+                "bsdf" | "ref" if material.is_some() => {
+                    return Err(ctx.error(child, "a shape takes exactly one bsdf"));
+                }
+                "bsdf" => {
+                    let m = self.bsdf(child)?;
+                    self.materials.push(m);
+                    material = Some(self.materials.len() as u32 - 1);
+                }
+                "ref" => {
+                    let id = ctx.required_attr(child, "id")?;
+                    let m = self.named_materials.get(id).ok_or_else(|| {
+                        ctx.error(
+                            child,
+                            format!("unknown bsdf id '{id}' (bsdfs must be declared before use)"),
+                        )
+                    })?;
+                    material = Some(*m);
+                }
+                "emitter" => {
+                    if emitter.is_some() {
+                        return Err(ctx.error(child, "a shape takes at most one emitter"));
+                    }
+                    let ety = ctx.required_attr(child, "type")?;
+                    if ety != "area" {
+                        return Err(ctx.error(
+                            child,
+                            format!("emitter '{ety}' cannot be attached to a shape (only 'area')"),
+                        ));
+                    }
+                    let ep = Properties::new(ctx, child);
+                    let radiance = ep
+                        .rgb("radiance")?
+                        .ok_or_else(|| ctx.error(child, "area emitter needs 'radiance'"))?;
+                    if radiance.min_element() < 0.0 {
+                        return Err(ctx.error(child, "radiance must not be negative"));
+                    }
+                    ep.warn_unused();
+                    emitter = Some(radiance);
+                }
+                tag if super::xml::PROPERTY_TAGS.contains(&tag) => {}
+                other => {
+                    return Err(ctx.error(child, format!("unexpected <{other}> inside a shape")));
+                }
+            }
+        }
+        let material = material.ok_or_else(|| ctx.error(node, "a shape needs a bsdf"))?;
+        let mut sphere = None;
+        let triangles = match ty {
+            "obj" => {
+                let (file, fnode) = props
+                    .string("filename")?
+                    .ok_or_else(|| ctx.error(node, "obj shape needs a 'filename'"))?;
+                let face_normals = props.boolean("face_normals", false)?;
+                let path = ctx.resolve_path(fnode, &file)?;
+                if !path.exists() {
+                    return Err(
+                        ctx.error(fnode, format!("mesh file not found: '{}'", path.display()))
+                    );
+                }
+                let mut tris = load_obj(
+                    &path,
+                    &ObjOptions {
+                        face_normals,
+                        flip_normals: flip,
+                    },
+                )
+                .map_err(|mut e| {
+                    e.message = format!(
+                        "{} (mesh of {} at line {})",
+                        e.message,
+                        XmlContext::describe(node),
+                        ctx.line(node)
+                    );
+                    e
+                })?;
+                if let Some((m, _)) = to_world {
+                    let nm = Mat3::from_mat4(m).inverse().transpose();
+                    for t in &mut tris {
+                        t.p = t.p.map(|p| m.transform_point3(p));
+                        t.n = t.n.map(|n| n.map(|v| (nm * v).normalize_or(v)));
+                        if m.determinant() < 0.0 {
+                            t.p.swap(1, 2);
+                            t.uv.swap(1, 2);
+                            if let Some(n) = &mut t.n {
+                                n.swap(1, 2);
+                            }
+                        }
+                    }
+                }
+                tris
+            }
+            "rectangle" | "cube" => {
+                let m = to_world.map(|t| t.0).unwrap_or(Mat4::IDENTITY);
+                let mut tris = if ty == "rectangle" {
+                    rectangle(&m)
+                } else {
+                    cube(&m)
+                };
+                if flip {
+                    for t in &mut tris {
+                        t.p.swap(1, 2);
+                        t.uv.swap(1, 2);
+                    }
+                }
+                for (i, t) in tris.iter().enumerate() {
+                    if (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length_squared() == 0.0 {
+                        return Err(
+                            ctx.error(node, format!("transform makes triangle {i} degenerate"))
+                        );
+                    }
+                }
+                tris
+            }
+            "sphere" => {
+                if to_world.is_some() {
+                    return Err(ctx.error(
+                        node,
+                        "sphere to_world is not supported; use 'center' and 'radius'",
+                    ));
+                }
+                let center = props.point("center")?.unwrap_or(Vec3::ZERO);
+                let radius = props.float("radius", 1.0)?;
+                if radius <= 0.0 {
+                    return Err(ctx.error(
+                        node,
+                        format!("sphere radius must be positive, got {radius}"),
+                    ));
+                }
+                sphere = Some((center, radius, flip));
+                Vec::new()
+            }
+            other => return Err(ctx.error(node, format!("unsupported shape type '{other}'"))),
+        };
+        props.warn_unused();
+        self.shapes.push(PendingShape {
+            material,
+            triangles,
+            sphere,
+            emitter,
+        });
+        Ok(())
+    }
+
+    fn top_level_emitter(&mut self, node: Node) -> Result<(), SceneError> {
+        let ctx = self.ctx;
+        let ty = ctx.required_attr(node, "type")?;
+        let props = Properties::new(ctx, node);
+        let light = match ty {
+            "envmap" => {
+                let (file, fnode) = props
+                    .string("filename")?
+                    .ok_or_else(|| ctx.error(node, "envmap needs a 'filename'"))?;
+                let scale = props.float("scale", 1.0)?;
+                if scale < 0.0 {
+                    return Err(ctx.error(node, "envmap scale must not be negative"));
+                }
+                let to_world = props
+                    .transform("to_world")?
+                    .map(|t| t.0)
+                    .unwrap_or(Mat4::IDENTITY);
+                let path = ctx.resolve_path(fnode, &file)?;
+                let img = self.image(&path, true, fnode)?;
+                Light::Env(EnvMap::new(
+                    (*img).clone(),
+                    scale,
+                    Mat3::from_mat4(to_world),
+                ))
+            }
+            "constant" => {
+                let radiance = props
+                    .rgb("radiance")?
+                    .ok_or_else(|| ctx.error(node, "constant emitter needs 'radiance'"))?;
+                if radiance.min_element() < 0.0 {
+                    return Err(ctx.error(node, "radiance must not be negative"));
+                }
+                Light::Constant(radiance)
+            }
+            "area" => return Err(ctx.error(node, "an area emitter must be nested in a shape")),
+            other => return Err(ctx.error(node, format!("unsupported emitter type '{other}'"))),
+        };
+        props.warn_unused();
+        self.infinite_lights.push(light);
+        Ok(())
+    }
+
+    fn finish(self, path: &Path) -> Result<Scene, SceneError> {
+        let mut geometry = Vec::new();
+        let mut triangle_shading = Vec::new();
+        let mut prim_shape = Vec::new();
+        let mut shapes = Vec::new();
+        let mut lights = Vec::new();
+        let mut spheres = Vec::new();
+        for (si, s) in self.shapes.iter().enumerate() {
+            let mut emitter_tris = Vec::new();
+            for t in &s.triangles {
+                let prim = geometry.len() as u32;
+                let g = PrimGeom::triangle(t.p[0], t.p[1], t.p[2]);
+                if s.emitter.is_some() {
+                    emitter_tris.push(EmitterTriangle {
+                        prim,
+                        p0: g.p0,
+                        e1: g.e1,
+                        e2: g.e2,
+                        n: t.n,
+                    });
+                }
+                geometry.push(g);
+                triangle_shading.push(TriangleShading { n: t.n, uv: t.uv });
+                prim_shape.push(si as u32);
+            }
+            let light = match (s.emitter, s.sphere) {
+                (Some(radiance), Some((center, radius, flip))) => Some(Light::Sphere {
+                    radiance,
+                    center,
+                    radius,
+                    sign: if flip { -1.0 } else { 1.0 },
+                }),
+                (Some(radiance), None) => Light::mesh(radiance, emitter_tris),
+                _ => None,
+            };
+            let light_index = light.map(|l| {
+                lights.push(l);
+                lights.len() as u32 - 1
+            });
+            if let Some(sph) = s.sphere {
+                spheres.push((si as u32, sph));
+            }
+            shapes.push(Shape {
+                material: s.material,
+                light: light_index,
+            });
+        }
+        // Spheres follow all triangles so that prim ids below the triangle
+        // count index `triangle_shading` directly.
+        for (si, (center, radius, flip)) in spheres {
+            let mut g = PrimGeom::sphere(center, radius);
+            g.e2.x = if flip { -1.0 } else { 1.0 };
+            geometry.push(g);
+            prim_shape.push(si);
+        }
+        lights.extend(self.infinite_lights);
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for g in &geometry {
+            let b = g.aabb();
+            lo = lo.min(b.min.into());
+            hi = hi.max(b.max.into());
+        }
+        if geometry.is_empty() {
+            (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+        }
+        let accel = Accel::build(&geometry);
+        let name = path
+            .parent()
+            .and_then(|p| p.file_name())
+            .filter(|_| path.file_name().is_some_and(|f| f == "scene.xml"))
+            .or_else(|| path.file_stem())
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into());
+        Ok(Scene {
+            file: path.to_path_buf(),
+            name,
+            camera: self.camera.expect("checked in scene()"),
+            materials: self.materials,
+            shapes,
+            geometry,
+            triangle_shading,
+            prim_shape,
+            accel,
+            lights: Lights::new(lights),
+            max_depth: self.max_depth,
+            bounds: (lo, hi),
+            warnings: self.ctx.warnings.take(),
+        })
+    }
+}
