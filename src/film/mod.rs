@@ -21,6 +21,7 @@ pub fn commit_temp(tmp: &Path, path: &Path) -> Result<(), String> {
     })
 }
 
+pub mod compare;
 pub mod image;
 pub mod metrics;
 pub mod png_io;

@@ -25,8 +25,12 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(path, 0, "scene", format!("cannot read scene file: {e}")))?;
     let doc = roxmltree::Document::parse(&text).map_err(|e| {
-        let pos = e.pos();
-        SceneError::new(path, pos.row, "xml", format!("malformed XML: {e}"))
+        // A truncated file fails at its end, wherever the parser says.
+        let row = match e {
+            roxmltree::Error::UnexpectedEndOfStream => text.lines().count().max(1) as u32,
+            _ => e.pos().row,
+        };
+        SceneError::new(path, row, "xml", format!("malformed XML: {e}"))
     })?;
     let ctx = XmlContext::new(path, &doc);
     let mut builder = Builder::new(&ctx);

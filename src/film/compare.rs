@@ -1,0 +1,99 @@
+//! Statistical comparison of two noisy images (or a noisy image and a noisy
+//! reference): block means with their standard errors, turned into z-scores.
+//!
+//! A pixel's Monte Carlo estimate is too noisy, and too heavy-tailed, for a
+//! per-pixel test at low spp; averaging B×B blocks makes each block mean the
+//! mean of B²·spp samples, close enough to normal for a z-test. The variance
+//! of a block mean is the sum of its pixels' variances of the mean / B⁴.
+
+use super::image::Image;
+
+/// Block z-scores of the luminance of `a` against `b`, given each image's
+/// per-pixel variance of the mean (averaged over channels, as
+/// [`Film::variance_of_mean`](super::image::Film::variance_of_mean) returns).
+#[derive(Clone, Debug)]
+pub struct BlockComparison {
+    pub z: Vec<f64>,
+    pub mean_a: f64,
+    pub mean_b: f64,
+    /// z-score of the difference of the whole-image means.
+    pub z_global: f64,
+}
+
+impl BlockComparison {
+    /// Mean of z² over blocks: ≈ 1 when the images agree and the variances are right.
+    pub fn mean_z2(&self) -> f64 {
+        self.z.iter().map(|z| z * z).sum::<f64>() / self.z.len().max(1) as f64
+    }
+
+    pub fn max_abs_z(&self) -> f64 {
+        self.z.iter().fold(0.0f64, |m, z| m.max(z.abs()))
+    }
+
+    /// Fraction of blocks with |z| above `k`.
+    pub fn fraction_above(&self, k: f64) -> f64 {
+        self.z.iter().filter(|z| z.abs() > k).count() as f64 / self.z.len().max(1) as f64
+    }
+}
+
+fn lum(p: glam::Vec3) -> f64 {
+    (0.212671 * p.x + 0.715160 * p.y + 0.072169 * p.z) as f64
+}
+
+/// Compares block means. Variances are per pixel, of the mean, per channel
+/// average; luminance variance is approximated by that average (a slight
+/// over-estimate for coloured pixels, which makes the test conservative).
+pub fn compare_blocks(
+    a: &Image,
+    var_a: &[f32],
+    b: &Image,
+    var_b: &[f32],
+    block: usize,
+) -> Result<BlockComparison, String> {
+    if a.width != b.width || a.height != b.height {
+        return Err(format!(
+            "sizes differ: {}×{} vs {}×{}",
+            a.width, a.height, b.width, b.height
+        ));
+    }
+    let (w, h) = (a.width, a.height);
+    let (bw, bh) = (w / block, h / block);
+    if bw == 0 || bh == 0 {
+        return Err("block larger than the image".into());
+    }
+    let mut z = Vec::with_capacity(bw * bh);
+    let (mut sa, mut sb, mut sv) = (0.0f64, 0.0f64, 0.0f64);
+    let n_total = (bw * bh * block * block) as f64;
+    for by in 0..bh {
+        for bx in 0..bw {
+            let (mut ma, mut mb, mut v) = (0.0f64, 0.0f64, 0.0f64);
+            for y in by * block..(by + 1) * block {
+                for x in bx * block..(bx + 1) * block {
+                    let i = y * w + x;
+                    ma += lum(a.pixels[i]);
+                    mb += lum(b.pixels[i]);
+                    v += var_a[i] as f64 + var_b[i] as f64;
+                }
+            }
+            sa += ma;
+            sb += mb;
+            sv += v;
+            let n = (block * block) as f64;
+            let (ma, mb, v) = (ma / n, mb / n, v / (n * n));
+            z.push(if v > 0.0 {
+                (ma - mb) / v.sqrt()
+            } else if ma == mb {
+                0.0
+            } else {
+                f64::INFINITY
+            });
+        }
+    }
+    let z_global = if sv > 0.0 { (sa - sb) / sv.sqrt() } else { 0.0 };
+    Ok(BlockComparison {
+        z,
+        mean_a: sa / n_total,
+        mean_b: sb / n_total,
+        z_global,
+    })
+}

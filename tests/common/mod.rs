@@ -1,0 +1,78 @@
+//! Helpers shared by the integration tests: locating the scene pack (tests
+//! that need it skip with a message when `../shared` is absent) and
+//! rendering with statistics.
+#![allow(dead_code)]
+
+use ltcguide::film::compare::{BlockComparison, compare_blocks};
+use ltcguide::film::exr_io::read_image;
+use ltcguide::film::image::Image;
+use ltcguide::integrator::path::{PathSettings, RouletteMode};
+use ltcguide::render::{Budget, Method, RenderOptions, RenderResult, render};
+use ltcguide::scene::{Scene, load_scene};
+use std::path::{Path, PathBuf};
+
+pub const PACK_SCENES: [&str; 5] = [
+    "cornell-box",
+    "veach-mis",
+    "veach-ajar",
+    "staircase",
+    "living-room",
+];
+
+/// `../shared/scenes` next to the repository, if present.
+pub fn pack_dir() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");
+    dir.join("README.md").exists().then_some(dir)
+}
+
+/// Skips a test (returns None after printing why) when the pack is absent.
+pub fn pack_scene(name: &str) -> Option<(Scene, PathBuf)> {
+    let Some(dir) = pack_dir() else {
+        eprintln!("SKIPPED: the scene pack ../shared/scenes is absent (a fresh clone has no pack)");
+        return None;
+    };
+    let path = dir.join(name).join("scene.xml");
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    Some((scene, dir.join(name)))
+}
+
+pub fn reference(scene_dir: &Path) -> (Image, u32) {
+    let img = read_image(&scene_dir.join("reference.exr")).expect("reference.exr");
+    let meta: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(scene_dir.join("meta.json")).expect("meta.json"),
+    )
+    .expect("json");
+    let spp = meta["reference"]["spp"].as_u64().expect("reference.spp") as u32;
+    (img, spp)
+}
+
+pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool) -> RenderResult {
+    let opts = RenderOptions {
+        method,
+        budget: Budget::Spp(spp),
+        seed,
+        threads: 0,
+        path: PathSettings {
+            nee,
+            max_depth: scene.max_depth.or(Some(10)),
+            roulette: RouletteMode::Classic,
+        },
+        progress: false,
+    };
+    render(scene, &opts).expect("render")
+}
+
+/// Block comparison of a render against a noisy reference of `ref_spp`
+/// samples; the reference's per-pixel variance is estimated from our own
+/// (same estimator) scaled by the sample counts.
+pub fn compare_with_reference(
+    result: &RenderResult,
+    reference: &Image,
+    ref_spp: u32,
+    block: usize,
+) -> BlockComparison {
+    let var = result.film.variance_of_mean();
+    let scale = result.film.spp as f32 / ref_spp as f32;
+    let var_ref: Vec<f32> = var.iter().map(|v| v * scale).collect();
+    compare_blocks(&result.image, &var, reference, &var_ref, block).expect("same size")
+}

@@ -1,0 +1,189 @@
+//! Scene loading: every supported element loads, every kind of bad input is
+//! rejected with one clear line naming file, line and element, exit code 2,
+//! no panic and no output file.
+
+use ltcguide::scene::load_scene;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn data(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(p)
+}
+
+/// (file, the file the error must name, its line, a phrase of the reason)
+const BAD: &[(&str, &str, u32, &str)] = &[
+    (
+        "bad_integer.xml",
+        "bad_integer.xml",
+        12,
+        "is not an integer",
+    ),
+    ("bad_rgb.xml", "bad_rgb.xml", 21, "needs 3 numbers"),
+    ("bad_root.xml", "bad_root.xml", 2, "root element"),
+    (
+        "beckmann.xml",
+        "beckmann.xml",
+        25,
+        "unsupported microfacet distribution",
+    ),
+    ("corrupt_exr.xml", "corrupt_exr.xml", 27, "cannot read EXR"),
+    ("empty_scene.xml", "empty_scene.xml", 2, "no <sensor>"),
+    (
+        "missing_attribute.xml",
+        "missing_attribute.xml",
+        7,
+        "missing attribute 'value'",
+    ),
+    (
+        "missing_mesh.xml",
+        "missing_mesh.xml",
+        24,
+        "mesh file not found",
+    ),
+    (
+        "missing_texture.xml",
+        "missing_texture.xml",
+        25,
+        "file not found",
+    ),
+    ("nan_number.xml", "nan_number.xml", 7, "non-finite number"),
+    (
+        "negative_number.xml",
+        "negative_number.xml",
+        21,
+        "must not be negative",
+    ),
+    (
+        "negative_radius.xml",
+        "negative_radius.xml",
+        23,
+        "radius must be positive",
+    ),
+    ("no_camera.xml", "no_camera.xml", 2, "no <sensor>"),
+    ("no_emitter.xml", "no_emitter.xml", 2, "no emitter"),
+    ("obj_degenerate.xml", "degenerate.obj", 5, "zero-area"),
+    (
+        "obj_index_out_of_range.xml",
+        "out_of_range.obj",
+        4,
+        "out of range",
+    ),
+    ("obj_nan.xml", "nan.obj", 2, "non-finite"),
+    (
+        "singular_transform.xml",
+        "singular_transform.xml",
+        18,
+        "singular",
+    ),
+    ("truncated.xml", "truncated.xml", 16, "malformed XML"),
+    (
+        "unknown_element.xml",
+        "unknown_element.xml",
+        27,
+        "unsupported element",
+    ),
+    ("unknown_ref.xml", "unknown_ref.xml", 25, "unknown bsdf id"),
+    (
+        "unsupported_plugin.xml",
+        "unsupported_plugin.xml",
+        25,
+        "unsupported bsdf type",
+    ),
+    ("wrong_type.xml", "wrong_type.xml", 7, "must be <float>"),
+];
+
+#[test]
+fn every_bad_input_is_a_located_error() {
+    for &(file, named, line, phrase) in BAD {
+        let err = match load_scene(&data(&format!("bad/{file}"))) {
+            Ok(_) => panic!("{file} loaded but is bad input"),
+            Err(e) => e,
+        };
+        let text = err.to_string();
+        assert!(
+            !text.contains('\n'),
+            "{file}: message must be one line: {text}"
+        );
+        assert!(
+            err.file.ends_with(named),
+            "{file}: names {:?}, expected {named}",
+            err.file
+        );
+        assert_eq!(err.line, line, "{file}: {text}");
+        assert!(!err.element.is_empty(), "{file}: no element in {text}");
+        assert!(text.contains(phrase), "{file}: '{phrase}' not in {text}");
+    }
+}
+
+#[test]
+fn the_cli_exits_2_without_panic_or_output_on_bad_input() {
+    let out_dir = std::env::temp_dir().join(format!("ltcguide-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    for &(file, named, line, _) in BAD {
+        let out = out_dir.join("x.exr");
+        let run = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+            .args([
+                "render",
+                data(&format!("bad/{file}")).to_str().unwrap(),
+                "--spp",
+                "1",
+                "--out",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{file}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{file}: {stderr}");
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(errors.len(), 1, "{file}: {stderr}");
+        assert!(
+            errors[0].contains(&format!("{named}:{line}:")),
+            "{file}: {stderr}"
+        );
+        assert!(
+            !out.exists() && !out.with_extension("png").exists(),
+            "{file} left an output file"
+        );
+        let leftovers = std::fs::read_dir(&out_dir).unwrap().count();
+        assert_eq!(leftovers, 0, "{file} left temporary files");
+    }
+    std::fs::remove_dir_all(&out_dir).ok();
+}
+
+#[test]
+fn a_bad_cli_argument_is_a_clap_error() {
+    let run = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args(["render", "--spp", "many"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("invalid value"));
+}
+
+#[test]
+fn every_supported_element_loads() {
+    let scene = load_scene(&data("ok/all_elements.xml")).expect("loads");
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.camera.width, 32);
+    assert_eq!(scene.max_depth, Some(5));
+    // rectangle (2) + 2 quads (2 each) + cube (12) triangles, 4 spheres
+    assert_eq!(scene.triangle_count(), 2 + 4 + 12);
+    assert_eq!(scene.geometry.len(), 18 + 4);
+    // area light + constant
+    assert_eq!(scene.lights.lights.len(), 2);
+    assert!(scene.lights.has_infinite());
+    // 7 named + 1 inline black + 0: the light's inline bsdf
+    assert_eq!(scene.materials.len(), 8);
+    assert!(scene.materials[0].two_sided);
+}
+
+#[test]
+fn an_ignorable_element_is_a_warning() {
+    let scene = load_scene(&data("ok/ignored_integrator.xml")).expect("loads");
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(scene.warnings[0].contains("volpath"));
+    assert!(scene.warnings[0].contains("ignored_integrator.xml:3:"));
+}

@@ -1,0 +1,81 @@
+//! Every pack scene renders and agrees with its Mitsuba 3 reference within a
+//! statistical tolerance.
+//!
+//! Tolerance: the image is cut into 32×32 blocks; each block mean is the
+//! mean of 1024·spp path samples, and its standard error is estimated from
+//! the per-pixel sample variances (ours, plus the reference's, estimated
+//! from ours scaled by the sample-count ratio: the reference is the same
+//! estimator with more samples). If the renderers agree, block z-scores are
+//! ≈ N(0, 1), so E[z²] = 1. We require mean z² < 2 (a systematic bias of
+//! one standard error in every block would already give 2) and no block
+//! beyond |z| = 6, and the whole-image mean within 4 standard errors. Light
+//! transport noise is heavy-tailed at low spp, which inflates our variance
+//! estimate as much as the error, so the test stays valid; a wrong BSDF, a
+//! flipped normal or a missing light shifts dozens of blocks by many σ.
+
+mod common;
+
+use common::*;
+use ltcguide::render::Method;
+
+fn check(name: &str, spp: u32) {
+    let Some((scene, dir)) = pack_scene(name) else {
+        return;
+    };
+    let (reference, ref_spp) = reference(&dir);
+    let result = render_spp(&scene, Method::Pt, spp, 7, true);
+    assert_eq!(
+        result.stats.counters.nonfinite_samples, 0,
+        "{name}: non-finite samples"
+    );
+    let cmp = compare_with_reference(&result, &reference, ref_spp, 32);
+    eprintln!(
+        "{name}: mean {:.5} vs reference {:.5}, z_global {:.2}, mean z² {:.2}, max |z| {:.2}, {} blocks",
+        cmp.mean_a,
+        cmp.mean_b,
+        cmp.z_global,
+        cmp.mean_z2(),
+        cmp.max_abs_z(),
+        cmp.z.len()
+    );
+    assert!(
+        cmp.mean_z2() < 2.0,
+        "{name}: mean z² = {:.2}",
+        cmp.mean_z2()
+    );
+    assert!(
+        cmp.max_abs_z() < 6.0,
+        "{name}: max |z| = {:.2}",
+        cmp.max_abs_z()
+    );
+    assert!(
+        cmp.z_global.abs() < 4.0,
+        "{name}: global z = {:.2}",
+        cmp.z_global
+    );
+}
+
+#[test]
+fn cornell_box_matches_reference() {
+    check("cornell-box", 16);
+}
+
+#[test]
+fn veach_mis_matches_reference() {
+    check("veach-mis", 16);
+}
+
+#[test]
+fn veach_ajar_matches_reference() {
+    check("veach-ajar", 16);
+}
+
+#[test]
+fn staircase_matches_reference() {
+    check("staircase", 16);
+}
+
+#[test]
+fn living_room_matches_reference() {
+    check("living-room", 16);
+}
