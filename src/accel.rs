@@ -6,10 +6,9 @@
 //! through `primitive_indices` in the inner loop.
 
 use glam::{Vec3, Vec3A};
-use obvhs::{
-    BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, cwbvh::builder::build_cwbvh, ray::Ray, ray::RayHit,
-};
+use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, cwbvh::builder::build_cwbvh};
 use std::time::Duration;
+use wide::f32x8;
 
 /// The geometry a ray test needs, 48 bytes.
 #[derive(Clone, Copy, Debug)]
@@ -133,8 +132,31 @@ pub struct Hit {
     pub t: f32,
 }
 
+/// A BVH8 node decoded from obvhs's compressed node: the eight child boxes
+/// in full precision, structure-of-arrays, so one 8-wide slab test
+/// (`wide::f32x8`, one AVX register per plane) tests all children.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node8 {
+    lo: [[f32; 8]; 3],
+    hi: [[f32; 8]; 3],
+    /// Internal: node index. Leaf: `LEAF | count << 29 | first primitive`.
+    child: [u32; 8],
+}
+
+const LEAF: u32 = 1 << 31;
+const LEAF_START_MASK: u32 = (1 << 29) - 1;
+const STACK_SIZE: usize = 128;
+
+/// The scene's BVH: built by obvhs (PLOC + reinsertion, collapsed to a
+/// compressed wide BVH8), traversed by our own CPU traversal. obvhs's
+/// traversal is the GPU-style ordered-by-octant CWBVH walk with two 4-wide
+/// SSE box tests per node; decoding the quantised boxes once at build time
+/// and testing all eight children in one AVX pass, nearest first, is what
+/// makes this renderer faster than the reference CPU renderer (see the
+/// closing notes for the measured ratio).
 pub struct Accel {
-    bvh: CwBvh,
+    nodes: Vec<Node8>,
     /// Geometry in BVH leaf order.
     prims: Vec<PrimGeom>,
     /// Original primitive index of each entry of `prims`.
@@ -145,7 +167,7 @@ impl Accel {
     pub fn build(geometry: &[PrimGeom]) -> Self {
         if geometry.is_empty() {
             return Accel {
-                bvh: CwBvh::default(),
+                nodes: Vec::new(),
                 prims: Vec::new(),
                 prim_ids: Vec::new(),
             };
@@ -159,7 +181,7 @@ impl Accel {
         let prim_ids: Vec<u32> = bvh.primitive_indices.clone();
         let prims = prim_ids.iter().map(|&i| geometry[i as usize]).collect();
         Accel {
-            bvh,
+            nodes: decode_nodes(&bvh),
             prims,
             prim_ids,
         }
@@ -168,40 +190,167 @@ impl Accel {
     /// Closest hit along o + t·d for t in (tmin, tmax).
     #[inline]
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        if self.prims.is_empty() {
-            return None;
-        }
-        let ray = Ray::new(o.into(), d.into(), tmin, tmax);
-        let mut hit = RayHit::none();
-        let prims = &self.prims;
-        if self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            prims[id].intersect(r.origin.into(), r.direction.into(), r.tmin, r.tmax)
-        }) {
-            Some(Hit {
-                prim: self.prim_ids[hit.primitive_id as usize],
-                t: hit.t,
-            })
-        } else {
-            None
-        }
+        let mut best = tmax;
+        let mut best_prim = u32::MAX;
+        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim);
+        (best_prim != u32::MAX).then(|| Hit {
+            prim: self.prim_ids[best_prim as usize],
+            t: best,
+        })
     }
 
     /// True if anything blocks the open segment (tmin, tmax).
     #[inline]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
-        if self.prims.is_empty() {
-            return false;
+        let mut t = tmax;
+        let mut prim = u32::MAX;
+        self.traverse::<true>(o, d, tmin, &mut t, &mut prim);
+        prim != u32::MAX
+    }
+
+    #[inline(always)]
+    fn traverse<const ANY_HIT: bool>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: &mut f32,
+        hit_prim: &mut u32,
+    ) {
+        if self.nodes.is_empty() {
+            return;
         }
-        let ray = Ray::new(o.into(), d.into(), tmin, tmax);
-        let prims = &self.prims;
-        !self.bvh.ray_traverse_miss(ray, |r, id| {
-            prims[id].intersect(r.origin.into(), r.direction.into(), r.tmin, r.tmax)
-        })
+        let inv = Vec3::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+        // Slab planes as t = plane·inv − o·inv, one fused multiply-add each.
+        let inv_x = f32x8::splat(inv.x);
+        let inv_y = f32x8::splat(inv.y);
+        let inv_z = f32x8::splat(inv.z);
+        let oi_x = f32x8::splat(o.x * inv.x);
+        let oi_y = f32x8::splat(o.y * inv.y);
+        let oi_z = f32x8::splat(o.z * inv.z);
+        // Which plane is near depends on the direction's sign per axis.
+        let (nx, ny, nz) = (
+            (inv.x < 0.0) as usize,
+            (inv.y < 0.0) as usize,
+            (inv.z < 0.0) as usize,
+        );
+        let tmin_v = f32x8::splat(tmin);
+        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        let mut sp = 1usize;
+        stack[0] = (0, tmin);
+        while sp > 0 {
+            sp -= 1;
+            let (index, t_enter) = stack[sp];
+            if t_enter > *tmax {
+                continue;
+            }
+            let node = &self.nodes[index as usize];
+            let planes = [&node.lo, &node.hi];
+            let near_x = f32x8::from(planes[nx][0]).mul_sub(inv_x, oi_x);
+            let far_x = f32x8::from(planes[1 - nx][0]).mul_sub(inv_x, oi_x);
+            let near_y = f32x8::from(planes[ny][1]).mul_sub(inv_y, oi_y);
+            let far_y = f32x8::from(planes[1 - ny][1]).mul_sub(inv_y, oi_y);
+            let near_z = f32x8::from(planes[nz][2]).mul_sub(inv_z, oi_z);
+            let far_z = f32x8::from(planes[1 - nz][2]).mul_sub(inv_z, oi_z);
+            let t_near = near_x.fast_max(near_y).fast_max(near_z.fast_max(tmin_v));
+            // Robust slab test (Ize 2013): widen the far distance by 2γ₃ so
+            // that rounding never culls a box the ray touches.
+            let t_far = far_x
+                .fast_min(far_y)
+                .fast_min(far_z.fast_min(f32x8::splat(*tmax)))
+                * f32x8::splat(1.000_000_4);
+            let mut mask = t_near.simd_le(t_far).to_bitmask();
+            if mask == 0 {
+                continue;
+            }
+            let t_near = t_near.to_array();
+            // Internal children hit, to be pushed farthest first.
+            let mut pending = [(0u32, 0f32); 8];
+            let mut n_pending = 0usize;
+            while mask != 0 {
+                let slot = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let child = node.child[slot];
+                if child & LEAF != 0 {
+                    let start = (child & LEAF_START_MASK) as usize;
+                    let count = ((child >> 29) & 3) as usize;
+                    for p in start..start + count {
+                        let t = self.prims[p].intersect(o, d, tmin, *tmax);
+                        if t < *tmax {
+                            *tmax = t;
+                            *hit_prim = p as u32;
+                            if ANY_HIT {
+                                return;
+                            }
+                        }
+                    }
+                } else {
+                    // Insertion sort by decreasing distance (≤ 8 entries).
+                    let t = t_near[slot];
+                    let mut k = n_pending;
+                    while k > 0 && pending[k - 1].1 < t {
+                        pending[k] = pending[k - 1];
+                        k -= 1;
+                    }
+                    pending[k] = (child, t);
+                    n_pending += 1;
+                }
+            }
+            if sp + n_pending > STACK_SIZE {
+                // Unreachable for obvhs trees (depth ≪ 16); never overflow.
+                n_pending = STACK_SIZE - sp;
+            }
+            stack[sp..sp + n_pending].copy_from_slice(&pending[..n_pending]);
+            sp += n_pending;
+        }
     }
 
     pub fn node_count(&self) -> usize {
-        self.bvh.nodes.len()
+        self.nodes.len()
     }
+}
+
+#[inline(always)]
+fn safe_inverse(x: f32) -> f32 {
+    if x.abs() <= f32::EPSILON * 1e-6 {
+        1.0 / (f32::EPSILON * 1e-6).copysign(x)
+    } else {
+        1.0 / x
+    }
+}
+
+/// Decodes obvhs's quantised child boxes (plane = p + 2^(e−127)·q) into
+/// full-precision boxes. The quantisation rounds outwards, so the decoded
+/// box still contains the child; empty slots get an inverted box.
+fn decode_nodes(bvh: &CwBvh) -> Vec<Node8> {
+    bvh.nodes
+        .iter()
+        .map(|n| {
+            let mut out = Node8 {
+                lo: [[f32::INFINITY; 8]; 3],
+                hi: [[f32::NEG_INFINITY; 8]; 3],
+                child: [0; 8],
+            };
+            for slot in 0..8 {
+                if n.is_child_empty(slot) {
+                    continue;
+                }
+                let b = n.child_aabb(slot);
+                for axis in 0..3 {
+                    out.lo[axis][slot] = b.min[axis];
+                    out.hi[axis][slot] = b.max[axis];
+                }
+                out.child[slot] = if n.is_leaf(slot) {
+                    let (start, count) = n.child_primitives(slot);
+                    debug_assert!(start <= LEAF_START_MASK && (1..=3).contains(&count));
+                    LEAF | (count << 29) | start
+                } else {
+                    n.child_node_index(slot)
+                };
+            }
+            out
+        })
+        .collect()
 }
 
 struct BoundsOnly(Aabb);
