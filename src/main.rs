@@ -147,6 +147,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             roulette: args.rr,
         },
         progress: true,
+        snapshot_times: Vec::new(),
     };
     if args.out.extension().and_then(|e| e.to_str()) != Some("exr") {
         return Err(format!(

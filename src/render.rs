@@ -23,6 +23,83 @@ pub enum Method {
     Pt,
 }
 
+/// A wall clock that can leave out time spent on bookkeeping (snapshots), so
+/// taking snapshots does not change what a run's timings mean.
+#[derive(Clone, Debug)]
+pub struct RenderClock {
+    start: Instant,
+    excluded: f64,
+}
+
+impl RenderClock {
+    pub fn start() -> Self {
+        RenderClock {
+            start: Instant::now(),
+            excluded: 0.0,
+        }
+    }
+
+    /// Seconds of rendering so far.
+    pub fn seconds(&self) -> f64 {
+        self.start.elapsed().as_secs_f64() - self.excluded
+    }
+
+    /// Runs `f` without charging its time to the render.
+    pub fn excluding<T>(&mut self, f: impl FnOnce() -> T) -> T {
+        let t0 = Instant::now();
+        let out = f();
+        self.excluded += t0.elapsed().as_secs_f64();
+        out
+    }
+}
+
+/// The estimate a method would return if stopped at `seconds`.
+#[derive(Clone, Debug)]
+pub struct Snapshot {
+    pub seconds: f64,
+    pub spp: u32,
+    pub image: Image,
+}
+
+/// Takes snapshots at the given render times (seconds, ascending).
+#[derive(Clone, Debug, Default)]
+pub struct SnapshotPlan {
+    pub times: Vec<f64>,
+    next: usize,
+    pub taken: Vec<Snapshot>,
+}
+
+impl SnapshotPlan {
+    /// Roughly geometric time points from `first` to `last`, `per_doubling` per doubling.
+    pub fn geometric(first: f64, last: f64, per_doubling: u32) -> Self {
+        let mut times = Vec::new();
+        let ratio = 2f64.powf(1.0 / per_doubling.max(1) as f64);
+        let mut t = first.max(1e-3);
+        while t < last {
+            times.push(t);
+            t *= ratio;
+        }
+        SnapshotPlan {
+            times,
+            next: 0,
+            taken: Vec::new(),
+        }
+    }
+
+    /// True when the clock has passed the next snapshot time.
+    pub fn due(&self, seconds: f64) -> bool {
+        self.next < self.times.len() && seconds >= self.times[self.next]
+    }
+
+    /// Records an estimate (taken outside the render clock by the caller).
+    pub fn take(&mut self, seconds: f64, spp: u32, image: Image) {
+        while self.due(seconds) {
+            self.next += 1;
+        }
+        self.taken.push(Snapshot { seconds, spp, image });
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
     pub method: Method,
@@ -32,6 +109,8 @@ pub struct RenderOptions {
     pub threads: usize,
     pub path: PathSettings,
     pub progress: bool,
+    /// Snapshot times for error-versus-time curves (empty: none).
+    pub snapshot_times: Vec<f64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -56,6 +135,7 @@ pub struct RenderResult {
     pub image: Image,
     pub film: Film,
     pub stats: RenderStats,
+    pub snapshots: Vec<Snapshot>,
 }
 
 /// A progress bar on a terminal, nothing otherwise.
@@ -78,11 +158,15 @@ pub fn progress_bar(enabled: bool, len: u64, what: &str) -> Option<indicatif::Pr
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
-    let start = Instant::now();
+    let mut clock = RenderClock::start();
+    let mut snapshots = SnapshotPlan {
+        times: opts.snapshot_times.clone(),
+        ..Default::default()
+    };
     let (film, counters) = pool.install(|| match opts.method {
-        Method::Pt => render_unguided(scene, opts, start),
+        Method::Pt => render_unguided(scene, opts, &mut clock, &mut snapshots),
     });
-    let seconds = start.elapsed().as_secs_f64();
+    let seconds = clock.seconds();
     let image = Image {
         width: film.width,
         height: film.height,
@@ -105,10 +189,20 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         counters,
         mean_rgb: mean.to_array(),
     };
-    Ok(RenderResult { image, film, stats })
+    Ok(RenderResult {
+        image,
+        film,
+        stats,
+        snapshots: snapshots.taken,
+    })
 }
 
-fn render_unguided(scene: &Scene, opts: &RenderOptions, start: Instant) -> (Film, RenderCounters) {
+fn render_unguided(
+    scene: &Scene,
+    opts: &RenderOptions,
+    clock: &mut RenderClock,
+    snapshots: &mut SnapshotPlan,
+) -> (Film, RenderCounters) {
     let mut film = Film::new(scene.camera.width, scene.camera.height);
     let mut counters = RenderCounters::default();
     let (len, deadline) = match opts.budget {
@@ -120,16 +214,20 @@ fn render_unguided(scene: &Scene, opts: &RenderOptions, start: Instant) -> (Film
     loop {
         match (opts.budget, deadline) {
             (Budget::Spp(n), _) if pass >= n as u64 => break,
-            (_, Some(s)) if start.elapsed().as_secs_f64() >= s && pass > 0 => break,
+            (_, Some(s)) if clock.seconds() >= s && pass > 0 => break,
             _ => {}
         }
         let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass);
         film.merge(&out.film);
         counters.add(&out.counters);
         pass += 1;
+        let now = clock.seconds();
+        if snapshots.due(now) {
+            clock.excluding(|| snapshots.take(now, film.spp, film.image()));
+        }
         if let Some(b) = &bar {
             match deadline {
-                Some(_) => b.set_position((start.elapsed().as_secs_f64() * 1000.0) as u64),
+                Some(_) => b.set_position((clock.seconds() * 1000.0) as u64),
                 None => b.set_position(pass),
             }
         }

@@ -51,6 +51,14 @@ impl Film {
         self.sum.iter().map(|&s| s * inv).collect()
     }
 
+    pub fn image(&self) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels: self.mean(),
+        }
+    }
+
     /// Per-pixel variance of the mean (sample variance / spp), averaged over channels.
     pub fn variance_of_mean(&self) -> Vec<f32> {
         let n = self.spp as f64;

@@ -58,6 +58,7 @@ pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool)
             roulette: RouletteMode::Classic,
         },
         progress: false,
+        snapshot_times: Vec::new(),
     };
     render(scene, &opts).expect("render")
 }

@@ -1,0 +1,6 @@
+//! Experiments: equal-time comparisons with error against run time, their
+//! plots and summaries.
+
+pub mod colormap;
+pub mod curves;
+pub mod plot;
