@@ -89,118 +89,77 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     }
 }
 
-/// A minimal complex number for the conductor Fresnel equations.
-#[derive(Clone, Copy, Debug)]
-struct C {
-    re: f32,
-    im: f32,
-}
-
-impl C {
-    fn add(self, o: C) -> C {
-        C {
-            re: self.re + o.re,
-            im: self.im + o.im,
-        }
-    }
-    fn sub(self, o: C) -> C {
-        C {
-            re: self.re - o.re,
-            im: self.im - o.im,
-        }
-    }
-    fn mul(self, o: C) -> C {
-        C {
-            re: self.re * o.re - self.im * o.im,
-            im: self.re * o.im + self.im * o.re,
-        }
-    }
-    fn norm_sqr(self) -> f32 {
-        self.re * self.re + self.im * self.im
-    }
-    /// Principal square root (non-negative real part), written to avoid
-    /// cancellation for either sign of the real part.
-    fn sqrt(self) -> C {
-        let r = self.norm_sqr().sqrt();
-        if r == 0.0 {
-            return C { re: 0.0, im: 0.0 };
-        }
-        let t = (0.5 * (r + self.re.abs())).max(0.0).sqrt();
-        if self.re >= 0.0 {
-            C {
-                re: t,
-                im: self.im / (2.0 * t),
-            }
-        } else {
-            C {
-                re: self.im.abs() / (2.0 * t),
-                im: t.copysign(self.im),
-            }
-        }
-    }
-}
-
-/// |a/b|² guarded against a vanishing denominator.
-fn ratio_sqr(a: C, b: C) -> f32 {
-    let d = b.norm_sqr();
-    if d > 0.0 {
-        (a.norm_sqr() / d).min(1.0)
-    } else {
-        1.0
-    }
-}
-
 /// Exact unpolarised reflectance of a conductor with complex IOR η + iκ
-/// (relative to the outside medium) for one channel. `cos_i` is the cosine
-/// to the (micro)normal; the surface is opaque, so its sign is ignored.
-pub fn fresnel_conductor_1(cos_i: f32, eta: f32, k: f32) -> f32 {
-    let c = cos_i.abs().min(1.0);
-    let s2 = 1.0 - c * c;
-    let n = C { re: eta, im: k };
-    let n2 = n.mul(n);
-    // n·cosθ_t = sqrt(n² − sin²θ_i), the complex form of Snell's law.
-    let n_cos_t = n2.sub(C { re: s2, im: 0.0 }).sqrt();
-    let ci = C { re: c, im: 0.0 };
-    let rs = ratio_sqr(ci.sub(n_cos_t), ci.add(n_cos_t));
-    // r_p = (n² cosθ_i − n cosθ_t) / (n² cosθ_i + n cosθ_t)
-    let n2c = n2.mul(ci);
-    let rp = ratio_sqr(n2c.sub(n_cos_t), n2c.add(n_cos_t));
-    let r = 0.5 * (rs + rp);
-    if r.is_finite() {
-        r.clamp(0.0, 1.0)
-    } else {
-        1.0
-    }
-}
-
-/// Per-channel conductor Fresnel reflectance.
+/// (relative to the outside medium), all three channels at once. `cos_i` is
+/// the cosine to the (micro)normal; the surface is opaque, so its sign is
+/// ignored.
+///
+/// Uses the real (a, b) form of the Fresnel equations (Born & Wolf): with
+/// n² − sin²θ = (a + ib)², a² + b² = |n² − sin²θ|, both amplitude ratios
+/// reduce to real arithmetic (two square roots and two divisions per
+/// channel), which the compiler evaluates lane-wise.
 #[inline]
 pub fn fresnel_conductor(cos_i: f32, eta: Spectrum, k: Spectrum) -> Spectrum {
-    Spectrum::new(
-        fresnel_conductor_1(cos_i, eta.x, k.x),
-        fresnel_conductor_1(cos_i, eta.y, k.y),
-        fresnel_conductor_1(cos_i, eta.z, k.z),
+    let c = cos_i.abs().min(1.0);
+    let c2 = c * c;
+    let s2 = 1.0 - c2;
+    let t0 = eta * eta - k * k - Spectrum::splat(s2);
+    let a2pb2 = sqrt3(t0 * t0 + 4.0 * eta * eta * k * k);
+    let a = sqrt3(0.5 * (a2pb2 + t0));
+    let t1 = a2pb2 + Spectrum::splat(c2);
+    let t2 = 2.0 * c * a;
+    let t3 = a2pb2 * c2 + Spectrum::splat(s2 * s2);
+    let t4 = t2 * s2;
+    let rs = (t1 - t2) / (t1 + t2);
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    let r = 0.5 * (rs + rp);
+    // Only 0/0 (η = κ = 0 at grazing) can fail; a mirror is the limit.
+    Spectrum::select(
+        r.cmpeq(r),
+        r.clamp(Spectrum::ZERO, Spectrum::ONE),
+        Spectrum::ONE,
     )
+}
+
+#[inline]
+fn sqrt3(v: Spectrum) -> Spectrum {
+    Spectrum::new(
+        v.x.max(0.0).sqrt(),
+        v.y.max(0.0).sqrt(),
+        v.z.max(0.0).sqrt(),
+    )
+}
+
+/// One channel of [`fresnel_conductor`].
+#[inline]
+pub fn fresnel_conductor_1(cos_i: f32, eta: f32, k: f32) -> f32 {
+    fresnel_conductor(cos_i, Spectrum::splat(eta), Spectrum::splat(k)).x
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Reference closed form in the (a, b) parameterisation of the conductor
-    /// equations (Born & Wolf), independent of the complex-number code above.
+    /// Independent reference: the Fresnel amplitudes with complex
+    /// arithmetic in f64, r_s = (cosθ − n cosθ_t)/(cosθ + n cosθ_t),
+    /// r_p = (n² cosθ − n cosθ_t)/(n² cosθ + n cosθ_t), n cosθ_t =
+    /// sqrt(n² − sin²θ) on the principal branch.
     fn conductor_ab(cos_i: f64, eta: f64, k: f64) -> f64 {
-        let c2 = cos_i * cos_i;
-        let s2 = 1.0 - c2;
-        let t0 = eta * eta - k * k - s2;
-        let a2pb2 = (t0 * t0 + 4.0 * eta * eta * k * k).sqrt();
-        let a = (0.5 * (a2pb2 + t0)).max(0.0).sqrt();
-        let t1 = a2pb2 + c2;
-        let t2 = 2.0 * cos_i * a;
-        let rs = (t1 - t2) / (t1 + t2);
-        let t3 = a2pb2 * c2 + s2 * s2;
-        let t4 = t2 * s2;
-        let rp = rs * (t3 - t4) / (t3 + t4);
+        type C = (f64, f64);
+        let mul = |a: C, b: C| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+        let abs2 = |a: C| a.0 * a.0 + a.1 * a.1;
+        let sqrt = |a: C| {
+            let r = abs2(a).sqrt();
+            let re = (0.5 * (r + a.0)).max(0.0).sqrt();
+            let im = (0.5 * (r - a.0)).max(0.0).sqrt().copysign(a.1);
+            (re, im)
+        };
+        let n = (eta, k);
+        let n2 = mul(n, n);
+        let nct = sqrt((n2.0 - (1.0 - cos_i * cos_i), n2.1));
+        let rs = abs2((cos_i - nct.0, -nct.1)) / abs2((cos_i + nct.0, nct.1));
+        let n2c = (n2.0 * cos_i, n2.1 * cos_i);
+        let rp = abs2((n2c.0 - nct.0, n2c.1 - nct.1)) / abs2((n2c.0 + nct.0, n2c.1 + nct.1));
         0.5 * (rs + rp)
     }
 

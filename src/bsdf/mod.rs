@@ -269,15 +269,19 @@ fn check_eta(eta: f32) -> Result<(), String> {
 }
 
 fn check_conductor(fr: &ConductorFresnel) -> Result<(), String> {
-    if let ConductorFresnel::Complex { eta, k } = fr {
-        if !is_finite3(*eta) || !is_finite3(*k) || eta.min_element() < 0.0 || k.min_element() < 0.0
+    match fr {
+        ConductorFresnel::Complex { eta, k }
+            if !is_finite3(*eta)
+                || !is_finite3(*k)
+                || eta.min_element() < 0.0
+                || k.min_element() < 0.0 =>
         {
-            return Err(format!(
+            Err(format!(
                 "conductor eta {eta:?} / k {k:?} must be finite and ≥ 0"
-            ));
+            ))
         }
+        _ => Ok(()),
     }
-    Ok(())
 }
 
 impl Material {
@@ -628,7 +632,9 @@ impl Bsdf {
             BsdfModel::ThinDielectric { eta } => dielectric::sample_thin(eta, wo, u_lobe),
         }?;
         let weight = sanitize(s.weight);
-        if !(s.pdf > 0.0) || !s.pdf.is_finite() || !is_finite3(s.wi) {
+        // `pdf > 0` is false for NaN too.
+        let valid_pdf = s.pdf > 0.0 && s.pdf.is_finite();
+        if !valid_pdf || !is_finite3(s.wi) {
             return None;
         }
         Some(BsdfSample {

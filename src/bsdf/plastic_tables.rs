@@ -168,7 +168,7 @@ pub fn table_for(alpha: f32, eta: f32) -> &'static RoughPlasticTable {
     // serialise; a rare duplicate computation only leaks one small table.
     let table: &'static RoughPlasticTable =
         Box::leak(Box::new(RoughPlasticTable::compute(alpha, eta)));
-    *cache
+    cache
         .lock()
         .unwrap_or_else(|e| e.into_inner())
         .entry(key)
