@@ -133,15 +133,19 @@ pub struct GgxLobe {
 ///
 /// Approximations (exact where not listed):
 /// - roughconductor: weight = luminance(R · F_c(cos θ_o)): the Fresnel factor
-///   is taken at the viewing angle instead of at wo·h, the standard
-///   split-sum approximation, exact at normal incidence and for `none`;
+///   is taken at the viewing angle instead of at wo·h, the usual way of
+///   factoring Fresnel out of an LTC-fitted lobe (Heitz et al. 2016); exact
+///   for `none`, and close wherever F_c varies slowly (all but grazing);
 /// - roughplastic: ggx weight = F(cos θ_o, η) (same approximation); the
 ///   diffuse term ρ/(1 − R_int)·T(cos θ_o)·T(cos θ_i)/(π η²)·cos θ_i has its
 ///   T(cos θ_i) replaced by the cosine-weighted mean T̄ = 2∫T(μ)μ dμ, which
 ///   makes it Lambertian with weight luminance(ρ)/(1 − R_int)·T(cos θ_o)·T̄/η²
 ///   and preserves its hemispherical integral exactly;
 /// - plastic: diffuse weight uses T̄ = 1 − F_dr(η) (Mitsuba's external
-///   diffuse Fresnel fit) in the same way; the specular reflection is `delta`.
+///   diffuse Fresnel fit) in the same way; the specular reflection is `delta`;
+/// - conductor: `delta` = luminance(R · F_c(cos θ_o)); dielectric and
+///   thindielectric: `delta` = 1 (reflection + transmission);
+/// - a one-sided reflective model seen from the back has all weights 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lobes {
     pub diffuse: f32,
