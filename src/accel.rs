@@ -161,6 +161,8 @@ pub struct Accel {
     prims: Vec<PrimGeom>,
     /// Original primitive index of each entry of `prims`.
     prim_ids: Vec<u32>,
+    /// Leaf-order index of each original primitive.
+    order_of: Vec<u32>,
 }
 
 impl Accel {
@@ -170,6 +172,7 @@ impl Accel {
                 nodes: Vec::new(),
                 prims: Vec::new(),
                 prim_ids: Vec::new(),
+                order_of: Vec::new(),
             };
         }
         let bounds: Vec<BoundsOnly> = geometry.iter().map(|g| BoundsOnly(g.aabb())).collect();
@@ -180,10 +183,15 @@ impl Accel {
         );
         let prim_ids: Vec<u32> = bvh.primitive_indices.clone();
         let prims = prim_ids.iter().map(|&i| geometry[i as usize]).collect();
+        let mut order_of = vec![u32::MAX; geometry.len()];
+        for (k, &i) in prim_ids.iter().enumerate() {
+            order_of[i as usize] = k as u32;
+        }
         Accel {
             nodes: decode_nodes(&bvh),
             prims,
             prim_ids,
+            order_of,
         }
     }
 
@@ -192,7 +200,7 @@ impl Accel {
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = tmax;
         let mut best_prim = u32::MAX;
-        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim);
+        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim, u32::MAX);
         (best_prim != u32::MAX).then(|| Hit {
             prim: self.prim_ids[best_prim as usize],
             t: best,
@@ -202,9 +210,24 @@ impl Accel {
     /// True if anything blocks the open segment (tmin, tmax).
     #[inline]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+        self.occluded_except(o, d, tmin, tmax, u32::MAX)
+    }
+
+    /// Like [`occluded`](Self::occluded), ignoring primitive `skip` (an
+    /// original index). A shadow ray towards a point sampled on an emitter
+    /// must not be blocked by that emitter's own primitive: from an offset
+    /// origin, a ray to a point near a sphere's silhouette can clip the
+    /// sphere before reaching it, which would darken every sphere light.
+    #[inline]
+    pub fn occluded_except(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, skip: u32) -> bool {
         let mut t = tmax;
         let mut prim = u32::MAX;
-        self.traverse::<true>(o, d, tmin, &mut t, &mut prim);
+        let skip = self
+            .order_of
+            .get(skip as usize)
+            .copied()
+            .unwrap_or(u32::MAX);
+        self.traverse::<true>(o, d, tmin, &mut t, &mut prim, skip);
         prim != u32::MAX
     }
 
@@ -216,6 +239,7 @@ impl Accel {
         tmin: f32,
         tmax: &mut f32,
         hit_prim: &mut u32,
+        skip: u32,
     ) {
         if self.nodes.is_empty() {
             return;
@@ -275,6 +299,9 @@ impl Accel {
                     let start = (child & LEAF_START_MASK) as usize;
                     let count = ((child >> 29) & 3) as usize;
                     for p in start..start + count {
+                        if p as u32 == skip {
+                            continue;
+                        }
                         let t = self.prims[p].intersect(o, d, tmin, *tmax);
                         if t < *tmax {
                             *tmax = t;

@@ -32,6 +32,7 @@ pub enum Light {
         center: Vec3,
         radius: f32,
         sign: f32,
+        prim: u32,
     },
     Env(EnvMap),
     Constant(Spectrum),
@@ -46,6 +47,8 @@ pub struct LightSample {
     pub dist: f32,
     pub radiance: Spectrum,
     pub pdf: f32,
+    /// The emitting primitive (for shadow rays), `u32::MAX` at infinity.
+    pub prim: u32,
 }
 
 pub struct Lights {
@@ -256,6 +259,7 @@ impl Light {
                     dist,
                     radiance: *radiance,
                     pdf: dist2 / (cos * area),
+                    prim: t.prim,
                 })
             }
             Light::Sphere {
@@ -263,6 +267,7 @@ impl Light {
                 center,
                 radius,
                 sign,
+                prim,
             } => {
                 let to_center = *center - p;
                 let dist_c2 = to_center.length_squared();
@@ -283,6 +288,7 @@ impl Light {
                         dist,
                         radiance: *radiance,
                         pdf: dist2 / (cos * 4.0 * PI * radius * radius),
+                        prim: *prim,
                     });
                 }
                 if *sign < 0.0 {
@@ -292,7 +298,9 @@ impl Light {
                 let dist_c = dist_c2.sqrt();
                 let sin_max2 = radius * radius / dist_c2;
                 let cos_max = (1.0 - sin_max2).max(0.0).sqrt();
-                let cos_t = 1.0 - u.x * (1.0 - cos_max);
+                // 1 − cos θ_max without cancellation for small, far spheres.
+                let one_minus_cos = sin_max2 / (1.0 + cos_max);
+                let cos_t = 1.0 - u.x * one_minus_cos;
                 let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
                 let phi = 2.0 * PI * u.y;
                 let frame = crate::math::Frame::from_normal(to_center / dist_c);
@@ -300,7 +308,7 @@ impl Light {
                 // Distance to the near intersection.
                 let t = crate::accel::sphere_intersect(*center, *radius, p, wi, 0.0, f32::INFINITY);
                 let dist = if t.is_finite() { t } else { dist_c * cos_t };
-                let pdf = 1.0 / (2.0 * PI * (1.0 - cos_max));
+                let pdf = 1.0 / (2.0 * PI * one_minus_cos);
                 if !pdf.is_finite() {
                     return None;
                 }
@@ -309,6 +317,7 @@ impl Light {
                     dist,
                     radiance: *radiance,
                     pdf,
+                    prim: *prim,
                 })
             }
             Light::Env(env) => {
@@ -318,6 +327,7 @@ impl Light {
                     dist: f32::INFINITY,
                     radiance: env.eval(wi),
                     pdf,
+                    prim: u32::MAX,
                 })
             }
             Light::Constant(c) => Some(LightSample {
@@ -325,6 +335,7 @@ impl Light {
                 dist: f32::INFINITY,
                 radiance: *c,
                 pdf: INV_4PI,
+                prim: u32::MAX,
             }),
         }
     }
@@ -336,8 +347,9 @@ fn sphere_cone_pdf(center: Vec3, radius: f32, p: Vec3) -> Option<f32> {
     if dist_c2 <= radius * radius {
         return None;
     }
-    let cos_max = (1.0 - radius * radius / dist_c2).max(0.0).sqrt();
-    Some(1.0 / (2.0 * PI * (1.0 - cos_max)))
+    let sin_max2 = radius * radius / dist_c2;
+    let cos_max = (1.0 - sin_max2).max(0.0).sqrt();
+    Some(1.0 / (2.0 * PI * (sin_max2 / (1.0 + cos_max))))
 }
 
 /// Mitsuba's lat-long environment map (scene pack README, "envmap").

@@ -96,7 +96,11 @@ impl SnapshotPlan {
         while self.due(seconds) {
             self.next += 1;
         }
-        self.taken.push(Snapshot { seconds, spp, image });
+        self.taken.push(Snapshot {
+            seconds,
+            spp,
+            image,
+        });
     }
 }
 

@@ -7,11 +7,18 @@
 //! from ours scaled by the sample-count ratio: the reference is the same
 //! estimator with more samples). If the renderers agree, block z-scores are
 //! ≈ N(0, 1), so E[z²] = 1. We require mean z² < 2 (a systematic bias of
-//! one standard error in every block would already give 2) and no block
-//! beyond |z| = 6, and the whole-image mean within 4 standard errors. Light
-//! transport noise is heavy-tailed at low spp, which inflates our variance
-//! estimate as much as the error, so the test stays valid; a wrong BSDF, a
-//! flipped normal or a missing light shifts dozens of blocks by many σ.
+//! one standard error in every block would already give 2), at most 3 % of
+//! the blocks beyond |z| = 4 (0.006 % for a normal), and the whole-image mean
+//! within 4 standard errors.
+//!
+//! Why not a bound on the largest |z|: paths that are rare at 16 spp but
+//! carry much energy (caustics from the glossy plates of veach-mis onto the
+//! walls, which still sparkle in Mitsuba's reference) make a block's sample
+//! variance underestimate its true variance whenever the block saw none of
+//! them, so one or two such blocks reach |z| ≈ 6–9 with a correct renderer.
+//! A wrong BSDF, a flipped normal, a missing light or a 1 % bias in direct
+//! lighting (a bug this test caught: mean z² = 140 on veach-mis) shifts
+//! dozens of blocks by many σ and fails every criterion above.
 
 mod common;
 
@@ -30,12 +37,13 @@ fn check(name: &str, spp: u32) {
     );
     let cmp = compare_with_reference(&result, &reference, ref_spp, 32);
     eprintln!(
-        "{name}: mean {:.5} vs reference {:.5}, z_global {:.2}, mean z² {:.2}, max |z| {:.2}, {} blocks",
+        "{name}: mean {:.5} vs reference {:.5}, z_global {:.2}, mean z² {:.2}, max |z| {:.2}, beyond 4σ {:.1} %, {} blocks",
         cmp.mean_a,
         cmp.mean_b,
         cmp.z_global,
         cmp.mean_z2(),
         cmp.max_abs_z(),
+        100.0 * cmp.fraction_above(4.0),
         cmp.z.len()
     );
     assert!(
@@ -44,9 +52,9 @@ fn check(name: &str, spp: u32) {
         cmp.mean_z2()
     );
     assert!(
-        cmp.max_abs_z() < 6.0,
-        "{name}: max |z| = {:.2}",
-        cmp.max_abs_z()
+        cmp.fraction_above(4.0) <= 0.03,
+        "{name}: {:.1} % of blocks beyond 4σ",
+        100.0 * cmp.fraction_above(4.0)
     );
     assert!(
         cmp.z_global.abs() < 4.0,

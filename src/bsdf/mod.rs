@@ -6,16 +6,37 @@
 //! - `wi` points from the surface towards the light (the next path vertex);
 //! - both are unit vectors in the local frame;
 //! - `eval` returns f(wo, wi)·|cos θ_i| (Mitsuba's `eval` convention);
-//! - `pdf` is the solid-angle density of `sample` for its non-delta part.
+//! - `pdf` is the solid-angle density of `sample` for its non-delta part,
+//!   including the probability of choosing the non-delta technique.
+//!
+//! (The scene README names the viewer direction `i` and the light direction
+//! `o`, as Mitsuba does; its `cos_i` is our `wo.z`.)
 //!
 //! A [`Material`] holds textures and is what a scene stores; at a hit the
 //! integrator resolves the textures with [`Material::at`] into a small `Copy`
 //! [`Bsdf`], which answers eval, sample, pdf and the lobe decomposition that
 //! product guiding needs ([`Lobes`]).
+//!
+//! Files: [`microfacet`] (GGX, Smith, visible-normal sampling), [`fresnel`],
+//! [`diffuse`], [`conductor`], [`plastic`] (+ [`plastic_tables`], Mitsuba's
+//! T(μ)/R_int tables), [`dielectric`], [`material`] (validation, texture
+//! resolution); this file declares the interface, dispatches and applies
+//! the `twosided` mirroring.
 
-use crate::math::Spectrum;
+pub mod conductor;
+pub mod dielectric;
+pub mod diffuse;
+pub mod fresnel;
+pub mod material;
+pub mod microfacet;
+pub mod plastic;
+pub mod plastic_tables;
+
+use crate::math::{Spectrum, is_finite3, luminance};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
+use microfacet::Ggx;
+use plastic_tables::RoughPlasticTable;
 
 /// Complex index of refraction of a conductor, or Fresnel = 1 (`material none`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,11 +46,22 @@ pub enum ConductorFresnel {
 }
 
 /// A material as described by the scene file, with textured parameters.
+/// Build it with [`Material::new`], which validates the parameters and
+/// precomputes what the models need (roughplastic tables, sampling weights).
 #[derive(Clone, Debug)]
 pub struct Material {
     pub kind: MaterialKind,
     /// Mitsuba's `twosided` wrapper: back-facing queries are mirrored to the front.
     pub two_sided: bool,
+    derived: Derived,
+}
+
+/// Per-material constants computed once by [`Material::new`].
+#[derive(Clone, Copy, Debug)]
+struct Derived {
+    /// Mitsuba's s̄/(d̄ + s̄) for the plastics (unused otherwise).
+    specular_sampling_weight: f32,
+    table: Option<&'static RoughPlasticTable>,
 }
 
 #[derive(Clone, Debug)]
@@ -70,14 +102,15 @@ pub struct BsdfSample {
     /// Sampled direction towards the light, local frame.
     pub wi: Vec3,
     /// f·|cos θ_i| / pdf for a non-delta sample; the delta lobe's weight
-    /// (including its selection probability) for a delta sample.
+    /// divided by its selection probability for a delta sample.
     pub weight: Spectrum,
     /// Solid-angle pdf of the non-delta part (equal to `Bsdf::pdf(wo, wi)`),
     /// or the discrete selection probability of the delta lobe.
     pub pdf: f32,
     pub is_delta: bool,
-    /// Relative IOR across the interface for a refraction, else 1 (for
-    /// Russian roulette on radiance rather than importance).
+    /// Relative IOR across the interface for a refraction (η_i/η_t seen from
+    /// the viewer's side, Mitsuba's `bs.eta`), else 1 (for Russian roulette
+    /// on radiance rather than importance).
     pub eta: f32,
 }
 
@@ -91,19 +124,48 @@ pub struct GgxLobe {
 
 /// The lobe decomposition of a BSDF at one `wo`, in its local frame, as used
 /// by LTC product guiding. Weights are scalar (luminance) and non-negative.
-/// - f·cos ≈ `diffuse` × cos θ_i / π + Σ `ggx[j].weight` × GGX_cos(α_j)
-/// - `delta` is the total weight of smooth (delta) lobes, never guided.
-/// - `wo_local` is `wo` after the two-sided mirroring (z ≥ 0 for reflective
-///   materials), so the caller knows the lobes' frame orientation.
+/// - f·cos ≈ `diffuse` × cos θ_i / π + Σ `ggx[j].weight` × GGX_cos(α_j), with
+///   GGX_cos = [`microfacet::ggx_cos`] (Fresnel 1; its albedo is < 1);
+/// - `delta` is the total weight of smooth (delta) lobes, never guided;
+/// - `side`: +1 when the lobes live in the frame's upper hemisphere, −1 when
+///   the two-sided mirroring put them in the lower one (then the lobes apply
+///   to `wo` and `wi` with their z negated).
+///
+/// Approximations (exact where not listed):
+/// - roughconductor: weight = luminance(R · F_c(cos θ_o)): the Fresnel factor
+///   is taken at the viewing angle instead of at wo·h, the usual way of
+///   factoring Fresnel out of an LTC-fitted lobe (Heitz et al. 2016); exact
+///   for `none`, and close wherever F_c varies slowly (all but grazing);
+/// - roughplastic: ggx weight = F(cos θ_o, η) (same approximation); the
+///   diffuse term ρ/(1 − R_int)·T(cos θ_o)·T(cos θ_i)/(π η²)·cos θ_i has its
+///   T(cos θ_i) replaced by the cosine-weighted mean T̄ = 2∫T(μ)μ dμ, which
+///   makes it Lambertian with weight luminance(ρ)/(1 − R_int)·T(cos θ_o)·T̄/η²
+///   and preserves its hemispherical integral exactly;
+/// - plastic: diffuse weight uses T̄ = 1 − F_dr(η) (Mitsuba's external
+///   diffuse Fresnel fit) in the same way; the specular reflection is `delta`;
+/// - conductor: `delta` = luminance(R · F_c(cos θ_o)); dielectric and
+///   thindielectric: `delta` = 1 (reflection + transmission);
+/// - a one-sided reflective model seen from the back has all weights 0.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lobes {
     pub diffuse: f32,
     pub ggx: [GgxLobe; 1],
     pub ggx_count: usize,
     pub delta: f32,
-    /// +1 when the lobes live in the frame's upper hemisphere, −1 when the
-    /// two-sided mirroring put them in the lower one.
     pub side: f32,
+}
+
+impl Lobes {
+    const EMPTY: Lobes = Lobes {
+        diffuse: 0.0,
+        ggx: [GgxLobe {
+            weight: 0.0,
+            alpha: 1.0,
+        }],
+        ggx_count: 0,
+        delta: 0.0,
+        side: 1.0,
+    };
 }
 
 /// A material with its textures resolved at a shading point.
@@ -131,10 +193,15 @@ pub enum BsdfModel {
         alpha: f32,
         eta: f32,
         diffuse_reflectance: Spectrum,
+        /// Mitsuba's s̄/(d̄ + s̄), from the texture mean (not the local value).
+        specular_sampling_weight: f32,
+        /// Interned T(μ)/R_int table for (alpha, eta).
+        table: &'static RoughPlasticTable,
     },
     Plastic {
         eta: f32,
         diffuse_reflectance: Spectrum,
+        specular_sampling_weight: f32,
     },
     Dielectric {
         eta: f32,
@@ -144,103 +211,362 @@ pub enum BsdfModel {
     },
 }
 
-impl Material {
-    pub fn new(kind: MaterialKind, two_sided: bool) -> Result<Material, String> {
-        Ok(Material { kind, two_sided })
-    }
+#[inline]
+fn flip(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.y, -v.z)
+}
 
-    pub fn at(&self, uv: Vec2) -> Bsdf {
-        let reflectance = match &self.kind {
-            MaterialKind::Diffuse { reflectance } => reflectance.eval(uv),
-            MaterialKind::RoughPlastic {
-                diffuse_reflectance,
-                ..
-            }
-            | MaterialKind::Plastic {
-                diffuse_reflectance,
-                ..
-            } => diffuse_reflectance.eval(uv),
-            MaterialKind::RoughConductor {
-                specular_reflectance,
-                ..
-            }
-            | MaterialKind::Conductor {
-                specular_reflectance,
-                ..
-            } => specular_reflectance.eval(uv),
-            _ => Spectrum::ZERO,
-        };
-        Bsdf {
-            model: BsdfModel::Diffuse { reflectance },
-            two_sided: self.two_sided,
-        }
+/// Zeroes a non-finite or negative result: callers never see NaN/Inf.
+#[inline]
+fn sanitize(v: Spectrum) -> Spectrum {
+    if is_finite3(v) {
+        v.max(Spectrum::ZERO)
+    } else {
+        Spectrum::ZERO
     }
 }
 
 impl Bsdf {
-    fn rho(&self) -> Spectrum {
-        match self.model {
-            BsdfModel::Diffuse { reflectance } => reflectance,
-            _ => Spectrum::ZERO,
+    /// True when `twosided` mirrors this query to the front.
+    #[inline]
+    fn mirrored(&self, wo: Vec3) -> bool {
+        self.two_sided && wo.z < 0.0
+    }
+
+    #[inline]
+    fn rough_conductor(
+        alpha: f32,
+        fresnel: ConductorFresnel,
+        r: Spectrum,
+    ) -> conductor::RoughConductor {
+        conductor::RoughConductor {
+            distr: Ggx::new(alpha),
+            fresnel,
+            specular_reflectance: r,
         }
     }
+
+    #[inline]
+    fn rough_plastic(
+        alpha: f32,
+        eta: f32,
+        rho: Spectrum,
+        w: f32,
+        table: &'static RoughPlasticTable,
+    ) -> plastic::RoughPlastic {
+        plastic::RoughPlastic {
+            distr: Ggx::new(alpha),
+            eta,
+            diffuse_reflectance: rho,
+            specular_sampling_weight: w,
+            table,
+        }
+    }
+
+    /// f(wo, wi)·|cos θ_i| of the non-delta part.
+    #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Spectrum {
-        let (wo, wi) = if self.two_sided && wo.z < 0.0 {
-            (-wo, -wi)
+        let (wo, wi) = if self.mirrored(wo) {
+            (flip(wo), flip(wi))
         } else {
             (wo, wi)
         };
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Spectrum::ZERO;
-        }
-        self.rho() * wi.z * crate::math::INV_PI
+        let v = match self.model {
+            BsdfModel::Diffuse { reflectance } => diffuse::eval(reflectance, wo, wi),
+            BsdfModel::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).eval(wo, wi),
+            BsdfModel::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+                table,
+            } => {
+                Self::rough_plastic(
+                    alpha,
+                    eta,
+                    diffuse_reflectance,
+                    specular_sampling_weight,
+                    table,
+                )
+                .eval_pdf(wo, wi)
+                .0
+            }
+            BsdfModel::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+            } => plastic_model(eta, diffuse_reflectance, specular_sampling_weight).eval(wo, wi),
+            BsdfModel::Conductor { .. }
+            | BsdfModel::Dielectric { .. }
+            | BsdfModel::ThinDielectric { .. } => Spectrum::ZERO,
+        };
+        sanitize(v)
     }
+
+    /// Solid-angle density of `sample`'s non-delta part at `wi`.
+    #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (wo, wi) = if self.two_sided && wo.z < 0.0 {
-            (-wo, -wi)
+        let (wo, wi) = if self.mirrored(wo) {
+            (flip(wo), flip(wi))
         } else {
             (wo, wi)
         };
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        wi.z * crate::math::INV_PI
+        let p = match self.model {
+            BsdfModel::Diffuse { .. } => diffuse::pdf(wo, wi),
+            BsdfModel::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).pdf(wo, wi),
+            BsdfModel::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+                table,
+            } => {
+                Self::rough_plastic(
+                    alpha,
+                    eta,
+                    diffuse_reflectance,
+                    specular_sampling_weight,
+                    table,
+                )
+                .eval_pdf(wo, wi)
+                .1
+            }
+            BsdfModel::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+            } => plastic_model(eta, diffuse_reflectance, specular_sampling_weight).pdf(wo, wi),
+            BsdfModel::Conductor { .. }
+            | BsdfModel::Dielectric { .. }
+            | BsdfModel::ThinDielectric { .. } => 0.0,
+        };
+        if p.is_finite() { p.max(0.0) } else { 0.0 }
     }
-    pub fn sample(&self, wo: Vec3, _u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
-        let flip = self.two_sided && wo.z < 0.0;
-        let wo_f = if flip { -wo } else { wo };
-        if wo_f.z <= 0.0 {
-            return None;
+
+    /// (eval, pdf) in one call, sharing the microfacet terms.
+    #[inline]
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
+        match self.model {
+            BsdfModel::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => {
+                let (wo, wi) = if self.mirrored(wo) {
+                    (flip(wo), flip(wi))
+                } else {
+                    (wo, wi)
+                };
+                Self::rough_conductor(alpha, fresnel, specular_reflectance).eval_pdf(wo, wi)
+            }
+            BsdfModel::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+                table,
+            } => {
+                let (wo, wi) = if self.mirrored(wo) {
+                    (flip(wo), flip(wi))
+                } else {
+                    (wo, wi)
+                };
+                Self::rough_plastic(
+                    alpha,
+                    eta,
+                    diffuse_reflectance,
+                    specular_sampling_weight,
+                    table,
+                )
+                .eval_pdf(wo, wi)
+            }
+            _ => (self.eval(wo, wi), self.pdf(wo, wi)),
         }
-        let mut wi = crate::sampling::square_to_cosine_hemisphere(u);
-        let pdf = wi.z * crate::math::INV_PI;
-        if pdf <= 0.0 {
+    }
+
+    /// Samples `wi` given `wo`; `u_lobe` picks the lobe/technique, `u` the
+    /// direction. `None` when nothing is reflected (back side of a one-sided
+    /// model, a direction below the horizon, zero pdf).
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let mirrored = self.mirrored(wo);
+        let wo = if mirrored { flip(wo) } else { wo };
+        let s = match self.model {
+            BsdfModel::Diffuse { reflectance } => diffuse::sample(reflectance, wo, u),
+            BsdfModel::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).sample(wo, u),
+            BsdfModel::Conductor {
+                fresnel,
+                specular_reflectance,
+            } => conductor::sample_smooth(&fresnel, specular_reflectance, wo),
+            BsdfModel::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+                table,
+            } => Self::rough_plastic(
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+                table,
+            )
+            .sample(wo, u_lobe, u),
+            BsdfModel::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+            } => plastic_model(eta, diffuse_reflectance, specular_sampling_weight)
+                .sample(wo, u_lobe, u),
+            BsdfModel::Dielectric { eta } => dielectric::sample_dielectric(eta, wo, u_lobe),
+            BsdfModel::ThinDielectric { eta } => dielectric::sample_thin(eta, wo, u_lobe),
+        }?;
+        let weight = sanitize(s.weight);
+        // `pdf > 0` is false for NaN too.
+        let valid_pdf = s.pdf > 0.0 && s.pdf.is_finite();
+        if !valid_pdf || !is_finite3(s.wi) {
             return None;
-        }
-        if flip {
-            wi = -wi;
         }
         Some(BsdfSample {
-            wi,
-            weight: self.rho(),
-            pdf,
-            is_delta: false,
-            eta: 1.0,
+            wi: if mirrored { flip(s.wi) } else { s.wi },
+            weight,
+            ..s
         })
     }
-    pub fn lobes(&self, _wo: Vec3) -> Lobes {
-        Lobes {
-            diffuse: crate::math::luminance(self.rho()),
-            ggx: [GgxLobe {
-                weight: 0.0,
-                alpha: 1.0,
-            }],
-            ggx_count: 0,
-            delta: 0.0,
-            side: 1.0,
+
+    /// The lobe decomposition for product guiding (see [`Lobes`]).
+    pub fn lobes(&self, wo: Vec3) -> Lobes {
+        let mirrored = self.mirrored(wo);
+        let side = if mirrored { -1.0 } else { 1.0 };
+        let wo = if mirrored { flip(wo) } else { wo };
+        let mut l = Lobes {
+            side,
+            ..Lobes::EMPTY
+        };
+        let front = wo.z > 0.0;
+        let cos_o = wo.z.clamp(0.0, 1.0);
+        let nonneg = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
+        match self.model {
+            BsdfModel::Diffuse { reflectance } if front => {
+                l.diffuse = nonneg(luminance(reflectance));
+            }
+            BsdfModel::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } if front => {
+                l.ggx[0] = GgxLobe {
+                    weight: nonneg(luminance(
+                        specular_reflectance * conductor::fresnel(&fresnel, cos_o),
+                    )),
+                    alpha: Ggx::new(alpha).alpha(),
+                };
+                l.ggx_count = 1;
+            }
+            BsdfModel::Conductor {
+                fresnel,
+                specular_reflectance,
+            } if front => {
+                l.delta = nonneg(luminance(
+                    specular_reflectance * conductor::fresnel(&fresnel, cos_o),
+                ));
+            }
+            BsdfModel::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+                table,
+                ..
+            } if front => {
+                l.ggx[0] = GgxLobe {
+                    weight: nonneg(fresnel::fresnel_dielectric_r(cos_o, eta)),
+                    alpha: Ggx::new(alpha).alpha(),
+                };
+                l.ggx_count = 1;
+                l.diffuse = nonneg(
+                    luminance(diffuse_reflectance) / (1.0 - table.internal_reflectance)
+                        * table.transmittance(cos_o)
+                        * table.mean_transmittance
+                        / (eta * eta),
+                );
+            }
+            BsdfModel::Plastic {
+                eta,
+                diffuse_reflectance,
+                ..
+            } if front => {
+                let f = fresnel::fresnel_dielectric_r(cos_o, eta);
+                let fdr_int = fresnel::fresnel_diffuse_reflectance(1.0 / eta);
+                let t_mean = 1.0 - fresnel::fresnel_diffuse_reflectance(eta);
+                l.delta = nonneg(f);
+                l.diffuse = nonneg(
+                    luminance(diffuse_reflectance) / (1.0 - fdr_int) * (1.0 - f) * t_mean
+                        / (eta * eta),
+                );
+            }
+            BsdfModel::Dielectric { .. } | BsdfModel::ThinDielectric { .. } => {
+                // Reflection + transmission carry all the energy (up to the
+                // radiance scaling of refraction).
+                l.delta = 1.0;
+            }
+            _ => {}
         }
+        l
     }
+
+    /// True when every lobe is a delta (Mitsuba's smooth `conductor`,
+    /// `dielectric`, `thindielectric`): eval and pdf are identically zero,
+    /// so next-event estimation and guiding do not apply.
     pub fn has_smooth_lobes_only(&self) -> bool {
-        false
+        matches!(
+            self.model,
+            BsdfModel::Conductor { .. }
+                | BsdfModel::Dielectric { .. }
+                | BsdfModel::ThinDielectric { .. }
+        )
+    }
+
+    /// Alias of [`Self::has_smooth_lobes_only`].
+    #[inline]
+    pub fn is_delta_only(&self) -> bool {
+        self.has_smooth_lobes_only()
+    }
+
+    /// True when the BSDF has a non-delta component (NEE and guiding apply).
+    #[inline]
+    pub fn has_non_delta(&self) -> bool {
+        !self.has_smooth_lobes_only()
+    }
+
+    /// A cheap estimate of the directional albedo ∫ f cos dω_i at `wo`
+    /// (luminance), from the lobe weights: an upper bound for the rough
+    /// models, since the GGX albedo is ≤ 1. For roulette and heuristics,
+    /// never for unbiased weights.
+    pub fn albedo_estimate(&self, wo: Vec3) -> f32 {
+        let l = self.lobes(wo);
+        let ggx: f32 = l.ggx[..l.ggx_count].iter().map(|g| g.weight).sum();
+        l.diffuse + ggx + l.delta
+    }
+}
+
+#[inline]
+fn plastic_model(eta: f32, rho: Spectrum, w: f32) -> plastic::Plastic {
+    plastic::Plastic {
+        eta,
+        diffuse_reflectance: rho,
+        specular_sampling_weight: w,
+        fdr_int: fresnel::fresnel_diffuse_reflectance(1.0 / eta),
     }
 }

@@ -19,7 +19,11 @@ pub fn to_csv(rows: &[CurveRow]) -> String {
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
     for r in rows {
-        let _ = writeln!(s, "{},{},{:.6},{},{:.9e},{:.9e}", r.method, r.run, r.seconds, r.spp, r.mae, r.relmse);
+        let _ = writeln!(
+            s,
+            "{},{},{:.6},{},{:.9e},{:.9e}",
+            r.method, r.run, r.seconds, r.spp, r.mae, r.relmse
+        );
     }
     s
 }
@@ -36,7 +40,10 @@ pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
             if f.len() != 6 {
                 return Err(format!("bad row '{l}'"));
             }
-            let num = |s: &str| s.parse::<f64>().map_err(|_| format!("bad number '{s}' in '{l}'"));
+            let num = |s: &str| {
+                s.parse::<f64>()
+                    .map_err(|_| format!("bad number '{s}' in '{l}'"))
+            };
             Ok(CurveRow {
                 method: f[0].to_string(),
                 run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,

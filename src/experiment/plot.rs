@@ -58,7 +58,10 @@ fn panel(
         .margin(15)
         .x_label_area_size(40)
         .y_label_area_size(70)
-        .build_cartesian_2d((t.0 * 0.9..t.1 * 1.1).log_scale(), (y.0 * 0.8..y.1 * 1.25).log_scale())
+        .build_cartesian_2d(
+            (t.0 * 0.9..t.1 * 1.1).log_scale(),
+            (y.0 * 0.8..y.1 * 1.25).log_scale(),
+        )
         .map_err(err)?;
     chart
         .configure_mesh()
@@ -80,15 +83,27 @@ fn panel(
             continue;
         }
         let mut band: Vec<(f64, f64)> = pts.iter().map(|&(s, m, sd)| (s, m + sd)).collect();
-        band.extend(pts.iter().rev().map(|&(s, m, sd)| (s, (m - sd).max(m * 0.1))));
+        band.extend(
+            pts.iter()
+                .rev()
+                .map(|&(s, m, sd)| (s, (m - sd).max(m * 0.1))),
+        );
         chart
-            .draw_series(std::iter::once(Polygon::new(band, color.mix(0.15).filled())))
+            .draw_series(std::iter::once(Polygon::new(
+                band,
+                color.mix(0.15).filled(),
+            )))
             .map_err(err)?;
         chart
-            .draw_series(LineSeries::new(pts.iter().map(|&(s, m, _)| (s, m)), color.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                pts.iter().map(|&(s, m, _)| (s, m)),
+                color.stroke_width(2),
+            ))
             .map_err(err)?
             .label(c.method.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
     }
     chart
         .configure_series_labels()
@@ -115,7 +130,11 @@ mod tests {
         assert!(svg.starts_with("<svg"));
         assert!(svg.contains("relMSE") && svg.contains("MAE"));
         // plotters writes each label on its own line inside <text>.
-        assert_eq!(svg.matches("\npt\n").count(), 2, "one legend entry per panel");
+        assert_eq!(
+            svg.matches("\npt\n").count(),
+            2,
+            "one legend entry per panel"
+        );
         assert_eq!(svg.matches("\nradiance\n").count(), 2);
         assert!(svg.matches("<polyline").count() >= 4);
     }

@@ -36,6 +36,9 @@ impl BlockComparison {
     }
 }
 
+/// Relative rounding of f32 image data accumulated over many samples.
+const RELATIVE_ROUNDING: f64 = 1e-5;
+
 fn lum(p: glam::Vec3) -> f64 {
     (0.212671 * p.x + 0.715160 * p.y + 0.072169 * p.z) as f64
 }

@@ -148,13 +148,16 @@ pub fn trace_path<G: Guide>(
                 let f = bsdf.eval(wo, wi);
                 if f != Spectrum::ZERO {
                     let origin = spawn_origin(scene, it.p, it.ng, ls.wi);
-                    let tmax = if ls.dist.is_finite() {
-                        ls.dist * (1.0 - 1e-4) - scene.ray_epsilon(it.p)
+                    // Aim from the offset origin at the sampled point itself.
+                    let (dir, tmax) = if ls.dist.is_finite() {
+                        let to = it.p + ls.wi * ls.dist - origin;
+                        let len = to.length();
+                        (to / len, len * (1.0 - 1e-4))
                     } else {
-                        f32::INFINITY
+                        (ls.wi, f32::INFINITY)
                     };
                     counters.shadow_rays += 1;
-                    if tmax > 0.0 && !scene.occluded(origin, ls.wi, tmax) {
+                    if tmax > 0.0 && !scene.occluded_except(origin, dir, tmax, ls.prim) {
                         let mut pdf_scatter = bsdf.pdf(wo, wi);
                         if let Some(g) = guide_vertex.as_mut() {
                             let a = g.bsdf_fraction();

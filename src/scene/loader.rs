@@ -661,6 +661,7 @@ impl<'a> Builder<'a> {
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
         let mut spheres = Vec::new();
+        let triangle_total: usize = self.shapes.iter().map(|s| s.triangles.len()).sum();
         for (si, s) in self.shapes.iter().enumerate() {
             let mut emitter_tris = Vec::new();
             for t in &s.triangles {
@@ -685,6 +686,8 @@ impl<'a> Builder<'a> {
                     center,
                     radius,
                     sign: if flip { -1.0 } else { 1.0 },
+                    // Spheres follow all triangles in primitive order.
+                    prim: (triangle_total + spheres.len()) as u32,
                 }),
                 (Some(radiance), None) => Light::mesh(radiance, emitter_tris),
                 _ => None,

@@ -77,6 +77,11 @@ impl Scene {
         self.accel.occluded(o, d, 0.0, tmax)
     }
 
+    /// Occlusion of a shadow ray towards emitter primitive `light_prim`.
+    pub fn occluded_except(&self, o: Vec3, d: Vec3, tmax: f32, light_prim: u32) -> bool {
+        self.accel.occluded_except(o, d, 0.0, tmax, light_prim)
+    }
+
     pub fn interaction(&self, o: Vec3, d: Vec3, hit: Hit) -> Interaction {
         let g = &self.geometry[hit.prim as usize];
         let p = o + d * hit.t;

@@ -238,9 +238,16 @@ impl SphereMap {
 
     /// Square coordinates of a world direction.
     pub fn to_square(&self, d: Vec3) -> Vec2 {
-        let l = self.frame.to_local(d);
-        let cos_t = (l.z as f64).clamp(-1.0, 1.0);
-        let s = 0.5 * (1.0 - cos_t);
+        let l = self.frame.to_local(d).as_dvec3();
+        let l = l / l.length();
+        // (1 − cos θ)/2 cancels catastrophically near the axis; on the upper
+        // half use the equivalent r²/(2(1 + z)), which does not.
+        let r2 = l.x * l.x + l.y * l.y;
+        let s = if l.z > 0.0 {
+            r2 / (2.0 * (1.0 + l.z))
+        } else {
+            0.5 * (1.0 - l.z)
+        };
         let mut phi = (l.y as f64).atan2(l.x as f64);
         if phi < 0.0 {
             phi += 2.0 * std::f64::consts::PI;

@@ -1,0 +1,214 @@
+//! Building a [`Material`] from scene parameters (validation, Mitsuba's
+//! derived constants) and resolving its textures into a [`Bsdf`].
+
+use super::microfacet::Ggx;
+use super::{
+    Bsdf, BsdfModel, ConductorFresnel, Derived, Material, MaterialKind, plastic, plastic_tables,
+};
+use crate::math::{Spectrum, is_finite3, luminance};
+use crate::texture::Texture;
+use glam::Vec2;
+
+fn check_texture(name: &str, t: &Texture) -> Result<(), String> {
+    let ok = |c: Spectrum| is_finite3(c) && c.min_element() >= 0.0;
+    match t {
+        Texture::Constant(c) => {
+            if !ok(*c) {
+                return Err(format!(
+                    "{name}: invalid value {c:?} (must be finite and ≥ 0)"
+                ));
+            }
+        }
+        Texture::Checkerboard { color0, color1, .. } => {
+            if !ok(*color0) || !ok(*color1) {
+                return Err(format!(
+                    "{name}: checkerboard colours must be finite and ≥ 0"
+                ));
+            }
+        }
+        Texture::Bitmap(img) => {
+            if img.non_finite_pixels() > 0 {
+                return Err(format!("{name}: bitmap contains non-finite pixels"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Mitsuba's `Texture::mean()` in RGB mode: channel mean for a constant,
+/// mean luminance over the pixels for a bitmap, average of both colours for
+/// a checkerboard.
+fn texture_mean(t: &Texture) -> f32 {
+    let m = match t {
+        Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
+        Texture::Checkerboard { color0, color1, .. } => {
+            0.5 * ((color0.x + color0.y + color0.z) / 3.0 + (color1.x + color1.y + color1.z) / 3.0)
+        }
+        Texture::Bitmap(img) => {
+            let n = img.pixels.len().max(1);
+            (img.pixels.iter().map(|&p| luminance(p) as f64).sum::<f64>() / n as f64) as f32
+        }
+    };
+    if m.is_finite() { m.max(0.0) } else { 0.0 }
+}
+
+fn check_alpha(alpha: f32) -> Result<(), String> {
+    if alpha.is_finite() && alpha >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("alpha = {alpha} must be finite and ≥ 0"))
+    }
+}
+
+/// IORs must be positive and differ across the interface (Mitsuba throws
+/// otherwise for every dielectric-based model).
+fn check_eta(eta: f32) -> Result<(), String> {
+    if eta.is_finite() && eta > 0.0 && eta != 1.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "relative IOR int_ior/ext_ior = {eta} must be finite, positive and ≠ 1"
+        ))
+    }
+}
+
+fn check_conductor(fr: &ConductorFresnel) -> Result<(), String> {
+    match fr {
+        ConductorFresnel::Complex { eta, k }
+            if !is_finite3(*eta)
+                || !is_finite3(*k)
+                || eta.min_element() < 0.0
+                || k.min_element() < 0.0 =>
+        {
+            Err(format!(
+                "conductor eta {eta:?} / k {k:?} must be finite and ≥ 0"
+            ))
+        }
+        _ => Ok(()),
+    }
+}
+
+impl Material {
+    /// Validates the parameters (finite, non-negative α and colours; finite,
+    /// positive relative IOR ≠ 1; `twosided` only around reflective models)
+    /// and precomputes the roughplastic tables (interned per (α, η), about
+    /// 0.1 s the first time a pair is seen).
+    pub fn new(kind: MaterialKind, two_sided: bool) -> Result<Material, String> {
+        let mut derived = Derived {
+            specular_sampling_weight: 0.5,
+            table: None,
+        };
+        match &kind {
+            MaterialKind::Diffuse { reflectance } => check_texture("reflectance", reflectance)?,
+            MaterialKind::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => {
+                check_alpha(*alpha)?;
+                check_conductor(fresnel)?;
+                check_texture("specular_reflectance", specular_reflectance)?;
+            }
+            MaterialKind::Conductor {
+                fresnel,
+                specular_reflectance,
+            } => {
+                check_conductor(fresnel)?;
+                check_texture("specular_reflectance", specular_reflectance)?;
+            }
+            MaterialKind::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+            } => {
+                check_alpha(*alpha)?;
+                check_eta(*eta)?;
+                check_texture("diffuse_reflectance", diffuse_reflectance)?;
+                derived.specular_sampling_weight =
+                    plastic::specular_sampling_weight(texture_mean(diffuse_reflectance));
+                derived.table = Some(plastic_tables::table_for(*alpha, *eta));
+            }
+            MaterialKind::Plastic {
+                eta,
+                diffuse_reflectance,
+            } => {
+                check_eta(*eta)?;
+                check_texture("diffuse_reflectance", diffuse_reflectance)?;
+                derived.specular_sampling_weight =
+                    plastic::specular_sampling_weight(texture_mean(diffuse_reflectance));
+            }
+            MaterialKind::Dielectric { eta } | MaterialKind::ThinDielectric { eta } => {
+                check_eta(*eta)?;
+                if two_sided {
+                    return Err("twosided can only wrap a reflective BSDF, not a dielectric".into());
+                }
+            }
+        }
+        Ok(Material {
+            kind,
+            two_sided,
+            derived,
+        })
+    }
+
+    /// Resolves the textures at `uv` (already v-flipped as the README says).
+    pub fn at(&self, uv: Vec2) -> Bsdf {
+        // Textures are validated finite; negative texels (possible in EXR)
+        // would make f negative, so they are clamped here.
+        let tex = |t: &Texture| t.eval(uv).max(Spectrum::ZERO);
+        let model = match &self.kind {
+            MaterialKind::Diffuse { reflectance } => BsdfModel::Diffuse {
+                reflectance: tex(reflectance),
+            },
+            MaterialKind::RoughConductor {
+                alpha,
+                fresnel,
+                specular_reflectance,
+            } => BsdfModel::RoughConductor {
+                alpha: *alpha,
+                fresnel: *fresnel,
+                specular_reflectance: tex(specular_reflectance),
+            },
+            MaterialKind::Conductor {
+                fresnel,
+                specular_reflectance,
+            } => BsdfModel::Conductor {
+                fresnel: *fresnel,
+                specular_reflectance: tex(specular_reflectance),
+            },
+            MaterialKind::RoughPlastic {
+                alpha,
+                eta,
+                diffuse_reflectance,
+            } => {
+                // `kind` is public and could have been edited after `new`;
+                // a stale table is replaced rather than silently used.
+                let table = match self.derived.table {
+                    Some(t) if t.eta == *eta && t.alpha == Ggx::new(*alpha).alpha() => t,
+                    _ => plastic_tables::table_for(*alpha, *eta),
+                };
+                BsdfModel::RoughPlastic {
+                    alpha: *alpha,
+                    eta: *eta,
+                    diffuse_reflectance: tex(diffuse_reflectance),
+                    specular_sampling_weight: self.derived.specular_sampling_weight,
+                    table,
+                }
+            }
+            MaterialKind::Plastic {
+                eta,
+                diffuse_reflectance,
+            } => BsdfModel::Plastic {
+                eta: *eta,
+                diffuse_reflectance: tex(diffuse_reflectance),
+                specular_sampling_weight: self.derived.specular_sampling_weight,
+            },
+            MaterialKind::Dielectric { eta } => BsdfModel::Dielectric { eta: *eta },
+            MaterialKind::ThinDielectric { eta } => BsdfModel::ThinDielectric { eta: *eta },
+        };
+        Bsdf {
+            model,
+            two_sided: self.two_sided,
+        }
+    }
+}
