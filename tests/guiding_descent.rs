@@ -86,7 +86,7 @@ fn lobe(u: f64, v: f64) -> f64 {
 
 impl ChildWeights for SmoothProduct {
     fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
-        if cell.depth == 2 && (cell.ix + cell.iy) % 2 == 0 {
+        if cell.depth == 2 && (cell.ix + cell.iy).is_multiple_of(2) {
             return [0.0; 4];
         }
         let mut w = [0f32; 4];
@@ -94,7 +94,7 @@ impl ChildWeights for SmoothProduct {
             let (u0, v0, s) = cell.child(k).square_bounds();
             *w = radiance[k] * (lobe(u0 + 0.5 * s, v0 + 0.5 * s) * s * s) as f32;
         }
-        if cell.depth == 3 && cell.ix % 3 == 0 {
+        if cell.depth == 3 && cell.ix.is_multiple_of(3) {
             w[1] = f32::NAN;
         }
         w
@@ -314,8 +314,10 @@ fn pdf_integrates_to_one_leaf_by_leaf() {
 fn descent_is_stratified() {
     // A 64×64 stratified input on a one-node tree with unequal weights: each
     // child receives its exact share of strata, not a binomial count.
-    let mut root = QuadNode::default();
-    root.sums = [1.0, 2.0, 3.0, 2.0];
+    let root = QuadNode {
+        sums: [1.0, 2.0, 3.0, 2.0],
+        ..Default::default()
+    };
     let tree = QuadTree::from_nodes(vec![root]).unwrap();
     let mut counts = [0usize; 4];
     for j in 0..64 {

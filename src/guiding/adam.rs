@@ -106,7 +106,7 @@ pub fn kl_gradient_theta(
         return None;
     }
     let p_mix = a * pb + (1.0 - a) * pg;
-    if !(p_mix > 0.0) {
+    if p_mix.is_nan() || p_mix <= 0.0 {
         return None;
     }
     let s = sigmoid(theta);

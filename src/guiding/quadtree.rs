@@ -413,8 +413,10 @@ mod tests {
 
     #[test]
     fn from_nodes_rejects_malformed_trees() {
-        let mut root = QuadNode::default();
-        root.children = [1, 1, 0, 0];
+        let root = QuadNode {
+            children: [1, 1, 0, 0],
+            ..Default::default()
+        };
         assert!(QuadTree::from_nodes(vec![root, QuadNode::default()]).is_err());
         let mut bad = QuadNode::default();
         bad.sums[0] = f32::NAN;

@@ -109,7 +109,7 @@ pub fn validate(r: &Record) -> Result<(), RecordReject> {
     if !finite {
         return Err(RecordReject::NonFinite);
     }
-    if !(r.throughput_pdf > ZERO_PDF_EPSILON) {
+    if r.throughput_pdf <= ZERO_PDF_EPSILON {
         return Err(RecordReject::ZeroPdf);
     }
     if r.radiance < 0.0 || r.product < 0.0 {

@@ -191,7 +191,8 @@ impl SdTree {
         while let Some(n) = stack.pop() {
             let leaf_id = self.nodes[n].leaf as usize;
             let leaf = &self.leaves[leaf_id];
-            if !(leaf.recording.weight() > threshold) || leaf.depth >= MAX_SPATIAL_DEPTH {
+            // Weights are finite by construction (counts, halved on split).
+            if leaf.recording.weight() <= threshold || leaf.depth >= MAX_SPATIAL_DEPTH {
                 continue;
             }
             let axis = (leaf.depth % 3) as usize;
