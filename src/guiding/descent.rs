@@ -112,6 +112,22 @@ fn step_pdf(pdf: f32, w: f32, total: f32) -> f32 {
     pdf * ((w / total) * 4.0)
 }
 
+/// Chooses side 1 with probability b/(a+b) (a+b > 0) and rescales `u` to
+/// the chosen side. The choice is data, not control flow: with random `u`
+/// a branch would mispredict half the time, twice per level. The
+/// reciprocals depend only on the weights, so they overlap the
+/// u-dependency chain. A side of zero weight is never chosen (its
+/// reciprocal may be ∞ but is then not selected).
+#[inline(always)]
+fn split(u: f32, a: f32, b: f32) -> (usize, f32) {
+    let sum = a + b;
+    let p = a / sum;
+    let (inv_a, inv_b) = (sum / a, sum / b);
+    let side = (u >= p) as usize;
+    let (offset, inv) = if side == 0 { (0.0, inv_a) } else { (p, inv_b) };
+    (side, (u - offset) * inv)
+}
+
 #[inline]
 fn cell_point(cell: Cell, r: Vec2) -> Vec2 {
     // Dyadic origins and sizes are exact in f32 down to depth 20.
@@ -147,25 +163,9 @@ pub fn sample_descend<W: ChildWeights>(
             root_total = reported;
         }
         // Column (u) from the marginal, then row (v) within the column.
-        let left = w[0] + w[2];
-        let right = w[1] + w[3];
-        let p_left = left / (left + right);
-        let bx = if u.x < p_left {
-            u.x /= p_left;
-            0
-        } else {
-            u.x = (u.x - p_left) / (1.0 - p_left);
-            1
-        };
-        let (lo, hi) = (w[bx], w[bx + 2]);
-        let p_lo = lo / (lo + hi);
-        let by = if u.y < p_lo {
-            u.y /= p_lo;
-            0
-        } else {
-            u.y = (u.y - p_lo) / (1.0 - p_lo);
-            1
-        };
+        let (bx, ux) = split(u.x, w[0] + w[2], w[1] + w[3]);
+        let (by, uy) = split(u.y, w[bx], w[bx + 2]);
+        u = Vec2::new(ux, uy);
         u = Vec2::new(clamp(u.x), clamp(u.y));
         let k = bx | (by << 1);
         pdf = step_pdf(pdf, w[k], total);
@@ -273,13 +273,25 @@ mod tests {
     }
 
     #[test]
+    fn split_never_picks_a_zero_side_and_rescales_into_unit_interval() {
+        for u in [0.0f32, 0.3, 0.5, ONE_MINUS_EPS] {
+            assert_eq!(split(u, 0.0, 2.0).0, 1);
+            assert_eq!(split(u, 2.0, 0.0).0, 0);
+            assert_eq!(split(u, 1e-30, 1.0).0, (u > 0.0) as usize);
+            let (_, r) = split(u, 1.0, 3.0);
+            assert!((0.0..=1.0).contains(&r), "{u} → {r}");
+        }
+        assert_eq!(split(0.2, 1.0, 3.0), (0, 0.8));
+        assert_eq!(split(0.625, 1.0, 3.0), (1, 0.5));
+    }
+
+    #[test]
     fn fallbacks_are_deterministic() {
         // root → child 0 has a node whose sums are all zero: uniform below.
-        let mut root = QuadNode {
+        let root = QuadNode {
             sums: [1.0, 0.0, 0.0, 1.0],
             children: [1, 0, 0, 0],
         };
-        root.children[0] = 1;
         let t = QuadTree::from_nodes(vec![root, QuadNode::default()]).unwrap();
         let p = Vec2::new(0.1, 0.1);
         assert_eq!(pdf(&t, &mut RadianceWeights, p), 2.0);
