@@ -17,6 +17,17 @@ fn learn_alpha(
     steps: usize,
     seed: u64,
 ) -> (f32, BsdfFraction, AdamStats) {
+    learn_alpha_scaled(a, 1.0, cfg, steps, seed)
+}
+
+/// As [`learn_alpha`] with the integrand in other units (F·scale).
+fn learn_alpha_scaled(
+    a: f32,
+    scale: f32,
+    cfg: &AdamConfig,
+    steps: usize,
+    seed: u64,
+) -> (f32, BsdfFraction, AdamStats) {
     let mut frac = BsdfFraction::default();
     let mut stats = AdamStats::default();
     let mut rng = Rng::new(seed, 0);
@@ -31,7 +42,7 @@ fn learn_alpha(
         };
         let (pb, pg) = (2.0 * x, 2.0 * (1.0 - x));
         let p_mix = alpha * pb + (1.0 - alpha) * pg;
-        let f = a * pb + (1.0 - a) * pg;
+        let f = scale * (a * pb + (1.0 - a) * pg);
         let _ = frac.step_sample(cfg, f / p_mix, pb, pg, alpha, &mut stats);
         if i >= steps * 3 / 4 {
             acc += alpha as f64;
@@ -66,6 +77,22 @@ fn adam_converges_to_the_known_optimal_fraction() {
     assert_eq!(alpha, no_reg.alpha_min);
     let (alpha, _, _) = learn_alpha(0.0, &AdamConfig::default(), 60_000, 3);
     assert!(alpha < 0.15, "{alpha}");
+}
+
+#[test]
+fn normalised_gradient_makes_learning_independent_of_radiance_units() {
+    let cfg = AdamConfig::default();
+    let raw = AdamConfig {
+        normalize_gradient: false,
+        ..cfg
+    };
+    for scale in [1e-3f32, 1.0, 1e3] {
+        let (alpha, _, _) = learn_alpha_scaled(0.15, scale, &cfg, 60_000, 4);
+        assert!((alpha - 0.15).abs() < 0.06, "scale {scale}: {alpha}");
+    }
+    // Without it, a dim integrand lets the L2 term pin α near ½.
+    let (alpha, _, _) = learn_alpha_scaled(0.15, 1e-3, &raw, 60_000, 4);
+    assert!(alpha > 0.4, "raw gradient at scale 1e-3: {alpha}");
 }
 
 #[test]

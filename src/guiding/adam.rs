@@ -15,6 +15,16 @@
 //! f·L/p_mix, so
 //!   ∂L/∂θ = −product · (p_bsdf − p_guide)/p_mix · σ(θ)(1−σ(θ)) + λ·θ.
 //!
+//! Normalisation (on by default). The loss is defined on the normalised
+//! integrand F/∫F, so the exact one-sample gradient carries a factor
+//! 1/∫F; the formula above omits it. Without it the gradient is in the
+//! scene's radiance units while the L2 term λθ is not: in a dim region the
+//! regulariser dominates and pins α near ½, in a bright one it does
+//! nothing. Each leaf therefore keeps the running mean of `product` (an
+//! unbiased estimate of ∫F under any mixture) and divides by it, which
+//! makes learning rate and regulariser scale-free. `normalize_gradient =
+//! false` gives the raw formula.
+//!
 //! The α the renderer uses is clamped to [α_min, α_max]; the gradient still
 //! flows through σ(θ) (a straight-through clamp), so θ keeps learning while
 //! the clamp is active instead of stalling at zero derivative.
@@ -38,6 +48,10 @@ pub struct AdamConfig {
     pub theta_max: f64,
     pub alpha_min: f32,
     pub alpha_max: f32,
+    /// Divide the one-sample gradient by the leaf's running estimate of
+    /// ∫F (the mean of `product`), i.e. use the gradient of the KL to the
+    /// *normalised* integrand. See the module docs.
+    pub normalize_gradient: bool,
 }
 
 impl Default for AdamConfig {
@@ -51,6 +65,7 @@ impl Default for AdamConfig {
             theta_max: 20.0,
             alpha_min: 0.05,
             alpha_max: 1.0,
+            normalize_gradient: true,
         }
     }
 }
@@ -80,6 +95,11 @@ pub struct BsdfFraction {
     m: f64,
     v: f64,
     t: u64,
+    /// Σ product and count over every sample offered: product = F/p_mix is
+    /// an unbiased estimate of ∫F whatever the mixture, so the running mean
+    /// estimates the normaliser.
+    product_sum: f64,
+    product_count: u64,
 }
 
 #[inline]
@@ -140,7 +160,20 @@ impl BsdfFraction {
         stats: &mut AdamStats,
     ) -> Result<(), NonFiniteGradient> {
         match kl_gradient_theta(self.theta, product, bsdf_pdf, guide_pdf, alpha_used) {
-            Some(g) => self.step_gradient(cfg, g, stats),
+            Some(g) => {
+                let sum = self.product_sum + product as f64;
+                let count = self.product_count + 1;
+                let mean = sum / count as f64;
+                let g = if cfg.normalize_gradient && mean > 0.0 {
+                    g / mean
+                } else {
+                    g
+                };
+                self.step_gradient(cfg, g, stats)?;
+                self.product_sum = sum;
+                self.product_count = count;
+                Ok(())
+            }
             None => {
                 stats.rejected_non_finite += 1;
                 Err(NonFiniteGradient)

@@ -279,6 +279,8 @@ mod tests {
     fn is_send_and_sync() {
         fn check<T: Send + Sync>() {}
         check::<SdTree>();
+        assert_eq!(std::mem::size_of::<SpatialNode>(), 8);
+        eprintln!("SdLeaf: {} bytes", std::mem::size_of::<SdLeaf>());
     }
 
     #[test]
