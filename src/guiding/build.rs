@@ -113,6 +113,7 @@ mod tests {
             integral += t.nodes()[i].sums[k] as f64 * cell.solid_angle();
         });
         assert!((integral - 1.0).abs() < 1e-5, "∫L = {integral}, {deep:?}");
+        assert!((t.radiance_integral() as f64 - 1.0).abs() < 1e-5);
         assert!(b.build(&QuadTree::new()).is_none());
     }
 

@@ -13,6 +13,28 @@
 //! - [`schedule`]: the training schedule and the inverse-variance
 //!   combination of iterations.
 
+//! Integration, per render:
+//! ```text
+//! let mut tree = SdTree::new(scene_min, scene_max, SdTreeConfig::default());
+//! let mut schedule = Schedule::new(Budget::Spp(n));
+//! loop { match schedule.next() {
+//!   Step::Done => break,
+//!   step @ (Step::Train { .. } | Step::Final { .. }) => {
+//!     // each thread, at each non-delta vertex x with outgoing ω_o:
+//!     let id = tree.lookup(x); let leaf = tree.leaf(id);
+//!     let alpha = tree.bsdf_fraction(id);          // α ∈ [α_min, 1]
+//!     // sample: with prob. α the BSDF, else
+//!     //   descent::sample_direction(&leaf.sampling, &mut weights, u)
+//!     //   (None ⇒ guide unavailable: use α = 1, record guided = false)
+//!     // p_mix = α·p_bsdf + (1−α)·descent::pdf_direction(&leaf.sampling, &mut weights, ω_i)
+//!     // after the path: buffer.push(Record { radiance: L_i/p_mix, .. })
+//!     // after the pass (training only):
+//!     //   record_pass(&mut tree, &buffers);
+//!     // after the iteration: tree.refine(k); schedule.report(step, report);
+//!   } } }
+//! // final image: combine_inverse_variance over the last iterations.
+//! ```
+
 pub mod adam;
 pub mod adrrs;
 pub mod build;

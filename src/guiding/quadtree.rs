@@ -159,6 +159,14 @@ impl QuadTree {
         self.nodes[0].sums.iter().map(|&s| s as f64).sum()
     }
 
+    /// For a sampling tree: ∫ L dω over the sphere, Σ_k L_k·π at the root
+    /// (each root child covers π sr). Radiance guiding can build an adjoint
+    /// estimate for ADRRS from it.
+    pub fn radiance_integral(&self) -> f32 {
+        let s = self.nodes[0].sums;
+        ((s[0] + s[1]) + (s[2] + s[3])) * std::f32::consts::PI
+    }
+
     /// Same structure, zero sums and weight: the next iteration's recording
     /// tree.
     pub fn structure_copy(&self) -> Self {
