@@ -12,7 +12,7 @@
 //! - [`adrrs`]: adjoint-driven Russian roulette;
 //! - [`schedule`]: the training schedule and the inverse-variance
 //!   combination of iterations.
-
+//!
 //! Integration, per render:
 //! ```text
 //! let mut tree = SdTree::new(scene_min, scene_max, SdTreeConfig::default());
