@@ -165,8 +165,9 @@ pub fn sample_descend<W: ChildWeights>(
         // Column (u) from the marginal, then row (v) within the column.
         let (bx, ux) = split(u.x, w[0] + w[2], w[1] + w[3]);
         let (by, uy) = split(u.y, w[bx], w[bx + 2]);
-        u = Vec2::new(ux, uy);
-        u = Vec2::new(clamp(u.x), clamp(u.y));
+        // The clamp also maps the NaN of 0·∞ (a subnormal weight chosen by
+        // u = 0) to 0.
+        u = Vec2::new(clamp(ux), clamp(uy));
         let k = bx | (by << 1);
         pdf = step_pdf(pdf, w[k], total);
         let child = cell.child(k);
@@ -281,6 +282,16 @@ mod tests {
             let (_, r) = split(u, 1.0, 3.0);
             assert!((0.0..=1.0).contains(&r), "{u} → {r}");
         }
+        // A subnormal side chosen by u = 0: the remainder may be 0·∞, and
+        // the sampler must still return a finite point with a matching pdf.
+        let t = QuadTree::from_nodes(vec![QuadNode {
+            sums: [1e-40, 1.0, 0.0, 1.0],
+            children: [0; 4],
+        }])
+        .unwrap();
+        let (p, d) = sample(&t, &mut RadianceWeights, Vec2::ZERO).unwrap();
+        assert!(p.is_finite() && p.x < 0.5 && p.y < 0.5, "{p:?}");
+        assert!(d > 0.0 && d == pdf(&t, &mut RadianceWeights, p));
         assert_eq!(split(0.2, 1.0, 3.0), (0, 0.8));
         assert_eq!(split(0.625, 1.0, 3.0), (1, 0.5));
     }
