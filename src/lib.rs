@@ -8,6 +8,7 @@ pub mod directional;
 pub mod emitter;
 pub mod experiment;
 pub mod film;
+pub mod guiding;
 pub mod integrator;
 pub mod math;
 pub mod render;

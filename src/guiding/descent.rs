@@ -1,0 +1,329 @@
+//! One descent for sampling and pdf evaluation (DESIGN §4).
+//!
+//! Both walk the tree from the root; at every node they ask a
+//! [`ChildWeights`] for the 4 children's weights and turn them into a child
+//! probability with the same function ([`resolve`] then [`step_pdf`]), so for
+//! a given shading point the pdf of a sampled point is bit-identical to the
+//! pdf returned by sampling. The square-measure pdf is
+//! ∏_levels 4·w_k/Σ_j w_j, uniform inside the leaf cell.
+//!
+//! Sampling rescales one 2D sample down the tree (Open PGL style): at each
+//! level u.x picks the column (u marginal), u.y the row within the column
+//! (conditional), and both are stretched back to [0,1), so a stratified
+//! input stays stratified at every level.
+//!
+//! Fallback: weights that are non-finite, or all zero below a parent that had
+//! weight, are replaced by the radiance sums at that level, and if those are
+//! zero too by the uniform split. Only a zero (or unusable) root means the
+//! guide has nothing to offer: `sample` returns `None` and `pdf` 0, and the
+//! caller samples the BSDF alone.
+
+use super::quadtree::{QuadTree, child_slot};
+use crate::directional::{Cell, SQUARE_TO_SOLID_ANGLE_PDF, dir_to_square, square_to_dir};
+use glam::{Vec2, Vec3};
+
+/// The per-vertex view of the tree: radiance guiding returns the radiance
+/// unchanged, product guiding multiplies each by the child cell's BSDF
+/// integral. Implementations may cache per-vertex work behind `&mut self`;
+/// the descent calls it once per visited node, parents before children.
+pub trait ChildWeights {
+    /// Weights of the 4 children of `cell`, given their stored radiance sums
+    /// (radiance guiding returns `radiance` unchanged; product guiding
+    /// returns radiance[k]·D_k).
+    fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4];
+}
+
+/// Radiance-only guiding: w_k = L_k.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RadianceWeights;
+
+impl ChildWeights for RadianceWeights {
+    #[inline]
+    fn child_weights(&mut self, _cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
+        radiance
+    }
+}
+
+impl<W: ChildWeights + ?Sized> ChildWeights for &mut W {
+    #[inline]
+    fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
+        (**self).child_weights(cell, radiance)
+    }
+}
+
+/// Result of a descent from the sampling side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Descended {
+    /// Point of the unit square, inside the chosen leaf cell.
+    pub point: Vec2,
+    /// Density with respect to area on the square.
+    pub pdf_square: f32,
+    /// Σ_k w_k at the root as the weight function returned it, or 0 when
+    /// the root's weights were unusable and the radiance fallback took over.
+    /// For product guiding this is Σ L_k·D_k, the reflected-radiance
+    /// (adjoint) estimate ADRRS needs.
+    pub root_total: f32,
+}
+
+/// Largest f32 below 1: a rescaled sample must stay in [0, 1).
+const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Weights usable as probabilities: all finite, negatives (approximation
+/// noise) clamped to 0, positive finite total.
+#[inline]
+fn sanitize(w: [f32; 4]) -> Option<([f32; 4], f32)> {
+    if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite() && w[3].is_finite()) {
+        return None;
+    }
+    let w = w.map(|x| if x > 0.0 { x } else { 0.0 });
+    let total = (w[0] + w[1]) + (w[2] + w[3]);
+    if total > 0.0 && total.is_finite() {
+        Some((w, total))
+    } else {
+        None
+    }
+}
+
+/// The weights used at one node, with their total, and the root total to
+/// report. `None` only at the root.
+#[inline]
+fn resolve<W: ChildWeights>(
+    weights: &mut W,
+    cell: Cell,
+    radiance: [f32; 4],
+) -> Option<([f32; 4], f32, f32)> {
+    if let Some((w, t)) = sanitize(weights.child_weights(cell, radiance)) {
+        return Some((w, t, t));
+    }
+    if let Some((w, t)) = sanitize(radiance) {
+        return Some((w, t, 0.0));
+    }
+    if cell.depth == 0 {
+        None
+    } else {
+        Some(([1.0; 4], 4.0, 0.0))
+    }
+}
+
+/// The pdf update for child weight `w` of total `total`; the single place
+/// where it is computed, so sample and pdf round identically.
+#[inline(always)]
+fn step_pdf(pdf: f32, w: f32, total: f32) -> f32 {
+    pdf * ((w / total) * 4.0)
+}
+
+/// Chooses side 1 with probability b/(a+b) (a+b > 0) and rescales `u` to
+/// the chosen side. The choice is data, not control flow: with random `u`
+/// a branch would mispredict half the time, twice per level. The
+/// reciprocals depend only on the weights, so they overlap the
+/// u-dependency chain. A side of zero weight is never chosen (its
+/// reciprocal may be ∞ but is then not selected).
+#[inline(always)]
+fn split(u: f32, a: f32, b: f32) -> (usize, f32) {
+    let sum = a + b;
+    let p = a / sum;
+    let (inv_a, inv_b) = (sum / a, sum / b);
+    let side = (u >= p) as usize;
+    let (offset, inv) = if side == 0 { (0.0, inv_a) } else { (p, inv_b) };
+    (side, (u - offset) * inv)
+}
+
+#[inline]
+fn cell_point(cell: Cell, r: Vec2) -> Vec2 {
+    // Dyadic origins and sizes are exact in f32 down to depth 20.
+    let size = f32::from_bits((127 - cell.depth) << 23);
+    let axis = |i: u32, r: f32| {
+        let lo = i as f32 * size;
+        let hi = (i + 1) as f32 * size;
+        let p = lo + r * size;
+        // Rounding may land on the upper edge, which belongs to the
+        // neighbour; pull it back inside so pdf() retraces this path.
+        if p >= hi { hi.next_down() } else { p.max(lo) }
+    };
+    Vec2::new(axis(cell.ix, r.x), axis(cell.iy, r.y))
+}
+
+/// Samples the tree with one 2D sample `u` ∈ [0,1)².
+pub fn sample_descend<W: ChildWeights>(
+    tree: &QuadTree,
+    weights: &mut W,
+    u: Vec2,
+) -> Option<Descended> {
+    let nodes = tree.nodes();
+    let clamp = |x: f32| if x >= 0.0 { x.min(ONE_MINUS_EPS) } else { 0.0 };
+    let mut u = Vec2::new(clamp(u.x), clamp(u.y));
+    let mut idx = 0usize;
+    let mut cell = Cell::ROOT;
+    let mut pdf = 1.0f32;
+    let mut root_total = 0.0;
+    loop {
+        let node = &nodes[idx];
+        let (w, total, reported) = resolve(weights, cell, node.sums)?;
+        if cell.depth == 0 {
+            root_total = reported;
+        }
+        // Column (u) from the marginal, then row (v) within the column.
+        let (bx, ux) = split(u.x, w[0] + w[2], w[1] + w[3]);
+        let (by, uy) = split(u.y, w[bx], w[bx + 2]);
+        // The clamp also maps the NaN of 0·∞ (a subnormal weight chosen by
+        // u = 0) to 0.
+        u = Vec2::new(clamp(ux), clamp(uy));
+        let k = bx | (by << 1);
+        pdf = step_pdf(pdf, w[k], total);
+        let child = cell.child(k);
+        match node.children[k] {
+            0 => {
+                return Some(Descended {
+                    point: cell_point(child, u),
+                    pdf_square: pdf,
+                    root_total,
+                });
+            }
+            c => {
+                idx = c as usize;
+                cell = child;
+            }
+        }
+    }
+}
+
+/// Square-measure pdf of `p` and the root total, walking the path `sample`
+/// would take to `p`.
+pub fn pdf_descend<W: ChildWeights>(tree: &QuadTree, weights: &mut W, p: Vec2) -> (f32, f32) {
+    if !(p.x.is_finite() && p.y.is_finite()) {
+        return (0.0, 0.0);
+    }
+    let nodes = tree.nodes();
+    let mut idx = 0usize;
+    let mut cell = Cell::ROOT;
+    let mut pdf = 1.0f32;
+    let mut root_total = 0.0;
+    loop {
+        let node = &nodes[idx];
+        let Some((w, total, reported)) = resolve(weights, cell, node.sums) else {
+            return (0.0, 0.0);
+        };
+        if cell.depth == 0 {
+            root_total = reported;
+        }
+        let k = child_slot(cell, p);
+        if w[k] == 0.0 {
+            return (0.0, root_total);
+        }
+        pdf = step_pdf(pdf, w[k], total);
+        match node.children[k] {
+            0 => return (pdf, root_total),
+            c => {
+                idx = c as usize;
+                cell = cell.child(k);
+            }
+        }
+    }
+}
+
+/// Samples a point of the square and its square-measure pdf.
+#[inline]
+pub fn sample<W: ChildWeights>(tree: &QuadTree, weights: &mut W, u: Vec2) -> Option<(Vec2, f32)> {
+    sample_descend(tree, weights, u).map(|d| (d.point, d.pdf_square))
+}
+
+/// Square-measure pdf of the point `p`.
+#[inline]
+pub fn pdf<W: ChildWeights>(tree: &QuadTree, weights: &mut W, p: Vec2) -> f32 {
+    pdf_descend(tree, weights, p).0
+}
+
+/// Samples a world direction; returns it with its solid-angle pdf.
+#[inline]
+pub fn sample_direction<W: ChildWeights>(
+    tree: &QuadTree,
+    weights: &mut W,
+    u: Vec2,
+) -> Option<(Vec3, f32)> {
+    sample(tree, weights, u).map(|(p, pdf)| (square_to_dir(p), pdf * SQUARE_TO_SOLID_ANGLE_PDF))
+}
+
+/// Solid-angle pdf of a unit world direction.
+#[inline]
+pub fn pdf_direction<W: ChildWeights>(tree: &QuadTree, weights: &mut W, d: Vec3) -> f32 {
+    pdf(tree, weights, dir_to_square(d)) * SQUARE_TO_SOLID_ANGLE_PDF
+}
+
+/// Σ_k w_k at the root alone (one weight call), for callers that need the
+/// adjoint estimate without sampling.
+pub fn root_total<W: ChildWeights>(tree: &QuadTree, weights: &mut W) -> f32 {
+    resolve(weights, Cell::ROOT, tree.nodes()[0].sums).map_or(0.0, |r| r.2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::guiding::quadtree::QuadNode;
+
+    #[test]
+    fn empty_tree_has_no_distribution_and_uniform_is_uniform() {
+        let t = QuadTree::new();
+        assert!(sample(&t, &mut RadianceWeights, Vec2::splat(0.5)).is_none());
+        assert_eq!(pdf(&t, &mut RadianceWeights, Vec2::splat(0.5)), 0.0);
+        let t = QuadTree::uniform(2.0);
+        let (p, d) = sample(&t, &mut RadianceWeights, Vec2::new(0.3, 0.7)).unwrap();
+        assert_eq!(d, 1.0);
+        // one level: the sample is rescaled, not redrawn
+        assert!((p - Vec2::new(0.3, 0.7)).length() < 1e-6, "{p:?}");
+        assert_eq!(root_total(&t, &mut RadianceWeights), 8.0);
+    }
+
+    #[test]
+    fn split_never_picks_a_zero_side_and_rescales_into_unit_interval() {
+        for u in [0.0f32, 0.3, 0.5, ONE_MINUS_EPS] {
+            assert_eq!(split(u, 0.0, 2.0).0, 1);
+            assert_eq!(split(u, 2.0, 0.0).0, 0);
+            assert_eq!(split(u, 1e-30, 1.0).0, (u > 0.0) as usize);
+            let (_, r) = split(u, 1.0, 3.0);
+            assert!((0.0..=1.0).contains(&r), "{u} → {r}");
+        }
+        // A subnormal side chosen by u = 0: the remainder may be 0·∞, and
+        // the sampler must still return a finite point with a matching pdf.
+        let t = QuadTree::from_nodes(vec![QuadNode {
+            sums: [1e-40, 1.0, 0.0, 1.0],
+            children: [0; 4],
+        }])
+        .unwrap();
+        let (p, d) = sample(&t, &mut RadianceWeights, Vec2::ZERO).unwrap();
+        assert!(p.is_finite() && p.x < 0.5 && p.y < 0.5, "{p:?}");
+        assert!(d > 0.0 && d == pdf(&t, &mut RadianceWeights, p));
+        assert_eq!(split(0.2, 1.0, 3.0), (0, 0.8));
+        assert_eq!(split(0.625, 1.0, 3.0), (1, 0.5));
+    }
+
+    #[test]
+    fn fallbacks_are_deterministic() {
+        // root → child 0 has a node whose sums are all zero: uniform below.
+        let root = QuadNode {
+            sums: [1.0, 0.0, 0.0, 1.0],
+            children: [1, 0, 0, 0],
+        };
+        let t = QuadTree::from_nodes(vec![root, QuadNode::default()]).unwrap();
+        let p = Vec2::new(0.1, 0.1);
+        assert_eq!(pdf(&t, &mut RadianceWeights, p), 2.0);
+        // Weights that are NaN everywhere fall back to radiance at every level.
+        struct Nan;
+        impl ChildWeights for Nan {
+            fn child_weights(&mut self, _: Cell, _: [f32; 4]) -> [f32; 4] {
+                [f32::NAN; 4]
+            }
+        }
+        assert_eq!(pdf(&t, &mut Nan, p), 2.0);
+        assert_eq!(pdf_descend(&t, &mut Nan, p).1, 0.0);
+        // A zero child is never sampled and has pdf 0.
+        assert_eq!(pdf(&t, &mut RadianceWeights, Vec2::new(0.7, 0.2)), 0.0);
+        for i in 0..1000 {
+            let u = Vec2::new(
+                (i as f32 + 0.5) / 1000.0,
+                ((i * 7919) % 1000) as f32 / 1000.0,
+            );
+            let (q, d) = sample(&t, &mut RadianceWeights, u).unwrap();
+            assert!(d > 0.0 && d == pdf(&t, &mut RadianceWeights, q));
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! Practical path guiding (Müller et al. 2017, with the 2019 production
+//! notes): the guiding data structures and their learning, independent of
+//! the renderer.
+//!
+//! - [`quadtree`]: the directional quadtree as data, and recording into it;
+//! - [`build`]: learning the next sampling tree from recorded flux;
+//! - [`descent`]: the one descent shared by sampling and pdf, parameterised
+//!   by a [`descent::ChildWeights`] (radiance or product);
+//! - [`sdtree`]: the spatial binary tree whose leaves own quadtree pairs;
+//! - [`record`]: per-thread record buffers and their deterministic merge;
+//! - [`adam`]: the learned BSDF-sampling fraction;
+//! - [`adrrs`]: adjoint-driven Russian roulette;
+//! - [`schedule`]: the training schedule and the inverse-variance
+//!   combination of iterations.
+//!
+//! Integration, per render:
+//! ```text
+//! let mut tree = SdTree::new(scene_min, scene_max, SdTreeConfig::default());
+//! let mut schedule = Schedule::new(Budget::Spp(n));
+//! loop { match schedule.next() {
+//!   Step::Done => break,
+//!   step @ (Step::Train { .. } | Step::Final { .. }) => {
+//!     // each thread, at each non-delta vertex x with outgoing ω_o:
+//!     let id = tree.lookup(x); let leaf = tree.leaf(id);
+//!     let alpha = tree.bsdf_fraction(id);          // α ∈ [α_min, 1]
+//!     // sample: with prob. α the BSDF, else
+//!     //   descent::sample_direction(&leaf.sampling, &mut weights, u)
+//!     //   (None ⇒ guide unavailable: use α = 1, record guided = false)
+//!     // p_mix = α·p_bsdf + (1−α)·descent::pdf_direction(&leaf.sampling, &mut weights, ω_i)
+//!     // after the path: buffer.push(Record { radiance: L_i/p_mix, .. })
+//!     // after the pass (training only):
+//!     //   record_pass(&mut tree, &buffers);
+//!     // after the iteration: tree.refine(k); schedule.report(step, report);
+//!   } } }
+//! // final image: combine_inverse_variance over the last iterations.
+//! ```
+
+pub mod adam;
+pub mod adrrs;
+pub mod build;
+pub mod descent;
+pub mod quadtree;
+pub mod record;
+pub mod schedule;
+pub mod sdtree;

@@ -1,0 +1,205 @@
+//! Recording path vertices into the SD-tree after a pass (DESIGN §5).
+//!
+//! During a pass each rendering thread appends [`Record`]s to its own
+//! [`RecordBuffer`]; nothing shared is written, so there is no contention.
+//! After the pass [`record_pass`] consumes the buffers in thread-index order
+//! and record order, so the result depends only on what each thread
+//! recorded, never on scheduling. The work then fans out over spatial leaves
+//! (each leaf's records in that fixed order), which is deterministic too.
+//!
+//! Per accepted record:
+//! - spatial filter: the position is jittered uniformly within the box size
+//!   of the leaf containing it (Müller 2017 §5.3, stochastic box filter),
+//!   using an RNG seeded by the record's own `seed`;
+//! - directional filter: the value is box-splatted into the recording
+//!   quadtree of the leaf the jittered point falls in;
+//! - the Adam step of the BSDF fraction is taken in the leaf that actually
+//!   produced the sample (no jitter: α belongs to the vertex's leaf).
+//!
+//! Guards (each rejected record counted exactly once, in this order):
+//! non-finite field or zero direction → `rejected_non_finite`; throughput·p_mix ≤
+//! [`ZERO_PDF_EPSILON`] → `rejected_zero_pdf`; negative radiance or product →
+//! `rejected_negative`.
+
+use super::adam::{AdamStats, NonFiniteGradient};
+use super::sdtree::SdTree;
+use crate::directional::dir_to_square;
+use crate::sampling::Rng;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// Below this, throughput·p_mix means the vertex's radiance estimate came
+/// from dividing by (nearly) nothing: such values are noise, not signal.
+pub const ZERO_PDF_EPSILON: f32 = 1e-20;
+
+/// One non-delta path vertex with the radiance that arrived along the
+/// sampled direction. All scalars are luminance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    pub position: Vec3,
+    /// Unit world direction towards which the incident radiance was measured
+    /// (the sampled ω_i, pointing away from the vertex).
+    pub direction: Vec3,
+    /// L_i(ω_i) / p_mix(ω_i), p_mix being the mixture pdf actually used.
+    pub radiance: f32,
+    /// f(ω_o, ω_i)·|cos θ_i|·L_i(ω_i) / p_mix(ω_i): the Adam step's F/p.
+    pub product: f32,
+    /// Solid-angle pdfs of ω_i under BSDF sampling and under the guide.
+    pub bsdf_pdf: f32,
+    pub guide_pdf: f32,
+    /// BSDF fraction α of the mixture used at this vertex.
+    pub alpha: f32,
+    /// Scalar path throughput up to the vertex times p_mix(ω_i); guards
+    /// against estimates obtained by dividing by ~0.
+    pub throughput_pdf: f32,
+    /// False when the guide was unavailable (α forced to 1): such samples
+    /// are recorded for the guide but carry no information about α.
+    pub guided: bool,
+    /// Any value unique to the vertex (e.g. a hash of pass, pixel, depth);
+    /// seeds the spatial jitter so it does not depend on thread timing.
+    pub seed: u64,
+}
+
+/// Counters of [`record_pass`]. Every record lands in exactly one of the
+/// first four.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RecordStats {
+    pub accepted: u64,
+    pub rejected_non_finite: u64,
+    pub rejected_negative: u64,
+    pub rejected_zero_pdf: u64,
+    /// Accepted records that also fed an Adam step, and gradients refused.
+    pub adam: AdamStats,
+}
+
+impl RecordStats {
+    pub fn total(&self) -> u64 {
+        self.accepted + self.rejected_non_finite + self.rejected_negative + self.rejected_zero_pdf
+    }
+
+    pub fn merge(&mut self, o: &RecordStats) {
+        self.accepted += o.accepted;
+        self.rejected_non_finite += o.rejected_non_finite;
+        self.rejected_negative += o.rejected_negative;
+        self.rejected_zero_pdf += o.rejected_zero_pdf;
+        self.adam.merge(&o.adam);
+    }
+}
+
+/// Why a record is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RecordReject {
+    NonFinite,
+    ZeroPdf,
+    Negative,
+}
+
+/// Checks a record against the guards.
+pub fn validate(r: &Record) -> Result<(), RecordReject> {
+    let finite = r.position.is_finite()
+        && r.direction.is_finite()
+        && r.radiance.is_finite()
+        && r.product.is_finite()
+        && r.bsdf_pdf.is_finite()
+        && r.guide_pdf.is_finite()
+        && r.alpha.is_finite()
+        && r.throughput_pdf.is_finite()
+        // A zero direction has no point on the square: as unusable as NaN.
+        && r.direction.length_squared() > 0.0;
+    if !finite {
+        return Err(RecordReject::NonFinite);
+    }
+    if r.throughput_pdf <= ZERO_PDF_EPSILON {
+        return Err(RecordReject::ZeroPdf);
+    }
+    if r.radiance < 0.0 || r.product < 0.0 {
+        return Err(RecordReject::Negative);
+    }
+    Ok(())
+}
+
+/// One rendering thread's records.
+#[derive(Clone, Debug, Default)]
+pub struct RecordBuffer {
+    pub records: Vec<Record>,
+}
+
+impl RecordBuffer {
+    #[inline]
+    pub fn push(&mut self, r: Record) {
+        self.records.push(r);
+    }
+
+    pub fn clear(&mut self) {
+        self.records.clear();
+    }
+}
+
+/// Work for one leaf: directional splats and Adam samples, in record order.
+#[derive(Default)]
+struct LeafWork {
+    splats: Vec<(Vec2, f32)>,
+    adam: Vec<u32>,
+}
+
+/// Records all buffers (in index order) into `tree`'s recording quadtrees
+/// and steps the leaves' BSDF fractions. Buffers are left untouched so the
+/// caller may reuse their allocations.
+pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
+    let mut stats = RecordStats::default();
+    let records: Vec<&Record> = buffers.iter().flat_map(|b| b.records.iter()).collect();
+    let mut work: Vec<LeafWork> = (0..tree.leaves().len())
+        .map(|_| LeafWork::default())
+        .collect();
+    for (i, r) in records.iter().enumerate() {
+        match validate(r) {
+            Err(RecordReject::NonFinite) => stats.rejected_non_finite += 1,
+            Err(RecordReject::ZeroPdf) => stats.rejected_zero_pdf += 1,
+            Err(RecordReject::Negative) => stats.rejected_negative += 1,
+            Ok(()) => {
+                stats.accepted += 1;
+                let own = tree.lookup(r.position);
+                let leaf = tree.leaf(own);
+                let mut rng = Rng::new(r.seed, 0x5d7e);
+                let jitter = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+                let target = tree.lookup(r.position + jitter * leaf.size);
+                let dir = r.direction.normalize();
+                work[target as usize]
+                    .splats
+                    .push((dir_to_square(dir), r.radiance));
+                if r.guided {
+                    work[own as usize].adam.push(i as u32);
+                }
+            }
+        }
+    }
+    let adam_cfg = tree.config.adam;
+    let leaf_adam: Vec<AdamStats> = tree
+        .leaves_mut()
+        .par_iter_mut()
+        .zip(work.par_iter())
+        .map(|(leaf, w)| {
+            for &(p, v) in &w.splats {
+                // Validated above: the quadtree's own guard cannot fire.
+                let _ = leaf.recording.record_box(p, v);
+            }
+            let mut s = AdamStats::default();
+            for &i in &w.adam {
+                let r = records[i as usize];
+                let _: Result<(), NonFiniteGradient> = leaf.fraction.step_sample(
+                    &adam_cfg,
+                    r.product,
+                    r.bsdf_pdf,
+                    r.guide_pdf,
+                    r.alpha,
+                    &mut s,
+                );
+            }
+            s
+        })
+        .collect();
+    for s in &leaf_adam {
+        stats.adam.merge(s);
+    }
+    stats
+}
