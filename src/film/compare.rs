@@ -83,13 +83,10 @@ pub fn compare_blocks(
             sv += v;
             let n = (block * block) as f64;
             let (ma, mb, v) = (ma / n, mb / n, v / (n * n));
-            z.push(if v > 0.0 {
-                (ma - mb) / v.sqrt()
-            } else if ma == mb {
-                0.0
-            } else {
-                f64::INFINITY
-            });
+            // Float rounding (e.g. of a directly seen, constant emitter in an
+            // f32 file) is not noise the variance sees: floor it.
+            let v = v + (RELATIVE_ROUNDING * mb.abs().max(ma.abs())).powi(2);
+            z.push(if v > 0.0 { (ma - mb) / v.sqrt() } else { 0.0 });
         }
     }
     let z_global = if sv > 0.0 { (sa - sb) / sv.sqrt() } else { 0.0 };
