@@ -66,6 +66,15 @@ struct RenderArgs {
     /// Write render statistics as JSON.
     #[arg(long)]
     stats_json: Option<PathBuf>,
+    /// Extra images: `alpha` writes the learned BSDF fraction at the first
+    /// vertex (guided methods) as OUT-alpha.exr and a false-colour PNG.
+    #[arg(long, value_enum)]
+    aov: Vec<Aov>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Aov {
+    Alpha,
 }
 
 /// Bad input (scene, image, arguments): exit code 2, like clap's own errors.
@@ -180,6 +189,9 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         args.out.display(),
         png.display()
     );
+    if args.aov.contains(&Aov::Alpha) {
+        write_alpha_aov(&scene, &result, &args.out)?;
+    }
     if let Some(path) = &args.stats_json {
         let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
         let tmp = ltcguide::film::temp_path_for(path);
@@ -187,6 +199,27 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
         ltcguide::film::commit_temp(&tmp, path)?;
     }
+    Ok(())
+}
+
+fn write_alpha_aov(scene: &Scene, result: &ltcguide::render::RenderResult, out: &Path) -> Result<(), String> {
+    let Some(tree) = &result.tree else {
+        return Err("--aov alpha needs a guided method (--method radiance or product)".into());
+    };
+    let alpha = ltcguide::guiding::aov::alpha_aov(scene, tree);
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let stem = out.with_extension("");
+    let exr = PathBuf::from(format!("{}-alpha.exr", stem.display()));
+    let png = exr.with_extension("png");
+    let values: Vec<glam::Vec3> = alpha.iter().map(|a| glam::Vec3::splat(a.unwrap_or(0.0))).collect();
+    write_rgb(&exr, w, h, &values)?;
+    // No vertex (background, delta-only): black.
+    let rgb: Vec<u8> = alpha
+        .iter()
+        .flat_map(|a| a.map_or([0, 0, 0], ltcguide::experiment::colormap::viridis))
+        .collect();
+    ltcguide::film::png_io::write_png_rgb8(&png, w, h, &rgb)?;
+    eprintln!("alpha AOV -> {} and {}", exr.display(), png.display());
     Ok(())
 }
 

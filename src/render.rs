@@ -2,6 +2,9 @@
 //! the statistics every run reports.
 
 use crate::film::image::{Film, Image};
+use crate::guiding::guide::RadianceModel;
+use crate::guiding::sdtree::SdTree;
+use crate::guiding::train::{GuidingStats, render_guided};
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::PathSettings;
 use crate::integrator::stats::RenderCounters;
@@ -21,6 +24,8 @@ pub enum Budget {
 pub enum Method {
     /// Unguided path tracing.
     Pt,
+    /// Practical path guiding: SD-tree, radiance-proportional descent.
+    Radiance,
 }
 
 /// A wall clock that can leave out time spent on bookkeeping (snapshots), so
@@ -133,13 +138,19 @@ pub struct RenderStats {
     pub height: usize,
     pub counters: RenderCounters,
     pub mean_rgb: [f32; 3],
+    /// Guided methods: iterations, tree sizes and learning counters.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub guiding: Option<GuidingStats>,
 }
 
 pub struct RenderResult {
     pub image: Image,
-    pub film: Film,
+    /// Per-pixel variance of the estimate (of the mean), channel average.
+    pub variance: Vec<f32>,
     pub stats: RenderStats,
     pub snapshots: Vec<Snapshot>,
+    /// The learned guide of a guided method.
+    pub tree: Option<SdTree>,
 }
 
 /// A progress bar on a terminal, nothing otherwise.
@@ -167,20 +178,30 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         times: opts.snapshot_times.clone(),
         ..Default::default()
     };
-    let (film, counters) = pool.install(|| match opts.method {
-        Method::Pt => render_unguided(scene, opts, &mut clock, &mut snapshots),
-    });
-    let seconds = clock.seconds();
-    let image = Image {
-        width: film.width,
-        height: film.height,
-        pixels: film.mean(),
+    let (len, what) = match opts.budget {
+        Budget::Spp(n) => (n as u64, format!("{:?} spp", opts.method)),
+        Budget::Seconds(s) => ((s * 1000.0) as u64, format!("{:?} ms", opts.method)),
     };
+    let bar = progress_bar(opts.progress, len, &what.to_lowercase());
+    let (image, variance, spp, counters, guiding, tree) = pool.install(|| match opts.method {
+        Method::Pt => {
+            let (film, counters) = render_unguided(scene, opts, &mut clock, &mut snapshots, bar.as_ref());
+            (film.image(), film.variance_of_mean(), film.spp, counters, None, None)
+        }
+        Method::Radiance => {
+            let out = render_guided(scene, opts, &RadianceModel, &mut clock, &mut snapshots, bar.as_ref());
+            (out.image, out.variance, out.spp, out.counters, Some(out.stats), Some(out.tree))
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let seconds = clock.seconds();
     let mean = image.mean_rgb();
     let stats = RenderStats {
         scene: scene.name.clone(),
         method: opts.method,
-        spp: film.spp,
+        spp,
         seconds,
         paths_per_second: counters.paths as f64 / seconds.max(1e-9),
         rays_per_second: (counters.rays + counters.shadow_rays) as f64 / seconds.max(1e-9),
@@ -188,16 +209,18 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         seed: opts.seed,
         nee: opts.path.nee,
         max_depth: opts.path.max_depth,
-        width: film.width,
-        height: film.height,
+        width: image.width,
+        height: image.height,
         counters,
         mean_rgb: mean.to_array(),
+        guiding,
     };
     Ok(RenderResult {
         image,
-        film,
+        variance,
         stats,
         snapshots: snapshots.taken,
+        tree,
     })
 }
 
@@ -206,14 +229,14 @@ fn render_unguided(
     opts: &RenderOptions,
     clock: &mut RenderClock,
     snapshots: &mut SnapshotPlan,
+    bar: Option<&indicatif::ProgressBar>,
 ) -> (Film, RenderCounters) {
     let mut film = Film::new(scene.camera.width, scene.camera.height);
     let mut counters = RenderCounters::default();
-    let (len, deadline) = match opts.budget {
-        Budget::Spp(n) => (n as u64, None),
-        Budget::Seconds(s) => ((s * 1000.0) as u64, Some(s)),
+    let deadline = match opts.budget {
+        Budget::Spp(_) => None,
+        Budget::Seconds(s) => Some(s),
     };
-    let bar = progress_bar(opts.progress, len, "pt");
     let mut pass = 0u64;
     loop {
         match (opts.budget, deadline) {
@@ -229,15 +252,12 @@ fn render_unguided(
         if snapshots.due(now) {
             clock.excluding(|| snapshots.take(now, film.spp, film.image()));
         }
-        if let Some(b) = &bar {
+        if let Some(b) = bar {
             match deadline {
                 Some(_) => b.set_position((clock.seconds() * 1000.0) as u64),
                 None => b.set_position(pass),
             }
         }
-    }
-    if let Some(b) = bar {
-        b.finish_and_clear();
     }
     (film, counters)
 }

@@ -43,3 +43,6 @@ pub mod quadtree;
 pub mod record;
 pub mod schedule;
 pub mod sdtree;
+pub mod guide;
+pub mod train;
+pub mod aov;

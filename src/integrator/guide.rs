@@ -50,6 +50,14 @@ pub struct PathVertex {
     pub bsdf_fraction: f32,
     /// False for delta vertices, which are never recorded.
     pub guided: bool,
+    /// True when a guide distribution took part in the mixture (so the
+    /// sample says something about the BSDF fraction).
+    pub guide_used: bool,
+    /// Scalar throughput before the vertex times the mixture pdf: a vertex
+    /// whose estimate came from dividing by ~0 is not worth learning from.
+    pub throughput_pdf: f32,
+    /// Index of the vertex along the path (0 = first hit).
+    pub depth: u32,
 }
 
 pub trait Guide: Sync {

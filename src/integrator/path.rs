@@ -179,6 +179,7 @@ pub fn trace_path<G: Guide>(
         let u_lobe = rng.next_f32();
         let u_dir = rng.next_2d();
         let (wi_world, weight, pdf_mix, is_delta, eta, pdf_bsdf, pdf_guide, alpha, f_value);
+        let has_guide = guide_vertex.is_some();
         match guide_vertex.as_mut() {
             Some(g) if u_choice >= g.bsdf_fraction() => {
                 let a = g.bsdf_fraction();
@@ -230,9 +231,11 @@ pub fn trace_path<G: Guide>(
                 }
             }
         }
+        let throughput_before = throughput;
         throughput *= weight;
         eta_scale *= eta * eta;
         if learning {
+            let depth = scratch.vertices.len() as u32;
             scratch.vertices.push(PathVertex {
                 p: it.p,
                 dir: wi_world,
@@ -244,6 +247,9 @@ pub fn trace_path<G: Guide>(
                 pdf_guide,
                 bsdf_fraction: alpha,
                 guided: !is_delta,
+                guide_used: has_guide && !is_delta,
+                throughput_pdf: crate::math::luminance(throughput_before) * pdf_mix,
+                depth,
             });
         }
         if throughput == Spectrum::ZERO {

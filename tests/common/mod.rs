@@ -72,8 +72,8 @@ pub fn compare_with_reference(
     ref_spp: u32,
     block: usize,
 ) -> BlockComparison {
-    let var = result.film.variance_of_mean();
-    let scale = result.film.spp as f32 / ref_spp as f32;
+    let var = &result.variance;
+    let scale = result.stats.spp as f32 / ref_spp as f32;
     let var_ref: Vec<f32> = var.iter().map(|v| v * scale).collect();
-    compare_blocks(&result.image, &var, reference, &var_ref, block).expect("same size")
+    compare_blocks(&result.image, var, reference, &var_ref, block).expect("same size")
 }

@@ -1,0 +1,296 @@
+//! Training and rendering with an SD-tree guide (Müller et al. 2017/2019):
+//! iterations of 1, 2, 4, … passes that record and refine the guide, a final
+//! iteration with the rest of the budget, and the inverse-variance
+//! combination of the iterations' images.
+
+use super::guide::{SdGuide, WeightModel};
+use super::record::{RecordStats, record_pass};
+use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
+use super::sdtree::{SdTree, SdTreeConfig};
+use crate::film::image::{Film, Image};
+use crate::integrator::render_pass;
+use crate::integrator::stats::RenderCounters;
+use crate::math::{Spectrum, luminance};
+use crate::render::{Budget, RenderClock, RenderOptions, SnapshotPlan};
+use crate::scene::Scene;
+use serde::Serialize;
+
+/// A pixel's single-sample variance is clamped at this multiple of the
+/// squared mean image luminance before averaging over pixels, so that a few
+/// extreme fireflies do not decide an iteration's weight.
+const VARIANCE_CLAMP_FACTOR: f64 = 1000.0;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct IterationSummary {
+    pub iteration: u32,
+    pub spp: u32,
+    pub seconds: f64,
+    pub training: bool,
+    /// Mean (clamped) variance of the iteration's pixel estimates.
+    pub mean_variance: f64,
+    /// Weight of the iteration in the final combination.
+    pub weight: f64,
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GuidingStats {
+    pub iterations: Vec<IterationSummary>,
+    pub tree_leaves: usize,
+    pub tree_spatial_nodes: usize,
+    pub tree_quadtree_nodes: usize,
+    pub tree_max_quadtree_depth: u32,
+    pub tree_bytes: usize,
+    pub records_accepted: u64,
+    pub records_rejected_non_finite: u64,
+    pub records_rejected_negative: u64,
+    pub records_rejected_zero_pdf: u64,
+    pub adam_steps: u64,
+    pub adam_rejected: u64,
+}
+
+pub struct GuidedOutput {
+    pub image: Image,
+    pub variance: Vec<f32>,
+    pub spp: u32,
+    pub counters: RenderCounters,
+    pub stats: GuidingStats,
+    pub tree: SdTree,
+}
+
+/// The pooled per-pixel mean of several films (all samples of all films).
+fn pooled_mean(films: &[&Film]) -> Vec<Spectrum> {
+    let n: u32 = films.iter().map(|f| f.spp).sum();
+    let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
+    let len = films.first().map_or(0, |f| f.sum.len());
+    (0..len)
+        .map(|i| films.iter().map(|f| f.sum[i]).sum::<Spectrum>() * inv)
+        .collect()
+}
+
+/// Per-pixel single-sample variance of `film` about the mean `mu` (channel
+/// average): Σ (x − μ)² / n from the film's sums. Measuring the spread
+/// about the pooled mean of all iterations rather than the film's own mean
+/// keeps it meaningful for 1- and 2-spp iterations, whose own sample
+/// variance is zero or nearly so in most pixels of a hard scene.
+fn sample_variance_about(film: &Film, mu: &[Spectrum]) -> Vec<f32> {
+    let n = film.spp.max(1) as f64;
+    film.sum
+        .iter()
+        .zip(&film.sum_sq)
+        .zip(mu)
+        .map(|((s, q), m)| {
+            let mut v = 0.0f64;
+            for c in 0..3 {
+                let (s, q, m) = (s[c] as f64, q[c] as f64, m[c] as f64);
+                v += ((q - 2.0 * m * s) / n + m * m).max(0.0);
+            }
+            (v / 3.0) as f32
+        })
+        .collect()
+}
+
+/// Mean over pixels of the (clamped) variance of the film's pixel means.
+fn iteration_variance(film: &Film, mu: &[Spectrum]) -> (f64, Vec<f32>) {
+    let sample_var = sample_variance_about(film, mu);
+    let mean_lum = mu.iter().map(|p| luminance(*p) as f64).sum::<f64>() / mu.len().max(1) as f64;
+    let clamp = VARIANCE_CLAMP_FACTOR * mean_lum * mean_lum;
+    let spp = film.spp.max(1) as f64;
+    let total: f64 = sample_var
+        .iter()
+        .map(|&v| if (v as f64).is_finite() { (v as f64).min(clamp) } else { clamp })
+        .sum();
+    (total / sample_var.len().max(1) as f64 / spp, sample_var)
+}
+
+/// Inverse-variance combination of iteration images (weights 1/mean
+/// variance, DESIGN.md §5), with the per-pixel variance of the combination
+/// and the normalised weights.
+pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
+    let first = films.first()?;
+    let films: Vec<&Film> = films.iter().copied().filter(|f| f.spp > 0).collect();
+    if films.is_empty() {
+        return None;
+    }
+    let mu = pooled_mean(&films);
+    let per_film: Vec<(f64, Vec<f32>)> = films.iter().map(|f| iteration_variance(f, &mu)).collect();
+    let mut weights: Vec<f64> = per_film
+        .iter()
+        .map(|(v, _)| if v.is_finite() && *v > 0.0 { 1.0 / v } else { 0.0 })
+        .collect();
+    if weights.iter().all(|&w| w == 0.0) {
+        // Noise-free (or unmeasurable): weigh by sample count.
+        weights = films.iter().map(|f| f.spp as f64).collect();
+    }
+    let total: f64 = weights.iter().sum();
+    let n = first.width * first.height;
+    let mut pixels = vec![Spectrum::ZERO; n];
+    let mut variance = vec![0f32; n];
+    for ((f, (_, sample_var)), &w) in films.iter().zip(&per_film).zip(&weights) {
+        if w == 0.0 {
+            continue;
+        }
+        let a = (w / total) as f32;
+        let inv_spp = 1.0 / f.spp as f32;
+        for i in 0..n {
+            pixels[i] += f.sum[i] * (a * inv_spp);
+            variance[i] += a * a * sample_var[i] * inv_spp;
+        }
+    }
+    let normalized: Vec<f64> = weights.iter().map(|w| w / total).collect();
+    Some((
+        Image {
+            width: first.width,
+            height: first.height,
+            pixels,
+        },
+        variance,
+        normalized,
+    ))
+}
+
+/// Renders with an SD-tree guide whose child weights come from `model`.
+pub fn render_guided<M: WeightModel>(
+    scene: &Scene,
+    opts: &RenderOptions,
+    model: &M,
+    clock: &mut RenderClock,
+    snapshots: &mut SnapshotPlan,
+    bar: Option<&indicatif::ProgressBar>,
+) -> GuidedOutput {
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, SdTreeConfig::default());
+    let mut schedule = Schedule::new(match opts.budget {
+        Budget::Spp(n) => ScheduleBudget::Spp(n as u64),
+        Budget::Seconds(s) => ScheduleBudget::Seconds(s),
+    });
+    let mut films: Vec<Film> = Vec::new();
+    let mut summaries: Vec<IterationSummary> = Vec::new();
+    let mut counters = RenderCounters::default();
+    let mut records = RecordStats::default();
+    let mut pass = 0u64;
+    let total_spp = |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
+
+    loop {
+        let step = schedule.next();
+        let t0 = clock.seconds();
+        let (iteration, training, target) = match step {
+            Step::Done => break,
+            Step::Train { iteration, spp } => (iteration, true, Budget::Spp(spp as u32)),
+            Step::Final { iteration, remaining } => (
+                iteration,
+                false,
+                match remaining {
+                    ScheduleBudget::Spp(n) => Budget::Spp(n as u32),
+                    // The schedule's remaining seconds end at the total budget.
+                    ScheduleBudget::Seconds(s) => Budget::Seconds(t0 + s),
+                },
+            ),
+        };
+        let mut film = Film::new(w, h);
+        loop {
+            match target {
+                Budget::Spp(n) if film.spp >= n => break,
+                Budget::Seconds(end) if clock.seconds() >= end && film.spp > 0 => break,
+                _ => {}
+            }
+            let guide = SdGuide {
+                tree: &tree,
+                model,
+                learning: training,
+                pass,
+            };
+            let out = render_pass(scene, &guide, &opts.path, opts.seed, pass);
+            film.merge(&out.film);
+            counters.add(&out.counters);
+            if training {
+                records.merge(&record_pass(&mut tree, &out.recorders));
+            }
+            pass += 1;
+            let now = clock.seconds();
+            if snapshots.due(now) {
+                let spp = total_spp(&films, &film);
+                clock.excluding(|| {
+                    let mut all: Vec<&Film> = films.iter().collect();
+                    all.push(&film);
+                    if let Some((image, _, _)) = combine(&all) {
+                        snapshots.take(now, spp, image);
+                    }
+                });
+            }
+            if let Some(b) = bar {
+                match opts.budget {
+                    Budget::Seconds(_) => b.set_position((clock.seconds() * 1000.0) as u64),
+                    Budget::Spp(_) => b.set_position(total_spp(&films, &film) as u64),
+                }
+            }
+        }
+        if training {
+            tree.refine(iteration);
+        }
+        // For the schedule's stopping rule: an iteration's own spread. Below
+        // 4 spp it says little (most pixels of a hard scene saw no light at
+        // all), so it is reported as unknown and the rule waits.
+        let mean_variance = if film.spp >= 4 {
+            iteration_variance(&film, &film.mean()).0
+        } else {
+            f64::INFINITY
+        };
+        let seconds = clock.seconds() - t0;
+        schedule.report(
+            step,
+            IterationReport {
+                spp: film.spp as u64,
+                seconds,
+                mean_variance,
+            },
+        );
+        summaries.push(IterationSummary {
+            iteration,
+            spp: film.spp,
+            seconds,
+            training,
+            mean_variance,
+            weight: 0.0,
+        });
+        films.push(film);
+    }
+
+    let refs: Vec<&Film> = films.iter().collect();
+    let (image, variance, weights) = combine(&refs).unwrap_or_else(|| {
+        (
+            Image {
+                width: w,
+                height: h,
+                pixels: vec![Spectrum::ZERO; w * h],
+            },
+            vec![0.0; w * h],
+            Vec::new(),
+        )
+    });
+    for (s, wgt) in summaries.iter_mut().zip(&weights) {
+        s.weight = *wgt;
+    }
+    let ts = tree.stats();
+    let stats = GuidingStats {
+        iterations: summaries,
+        tree_leaves: ts.leaves,
+        tree_spatial_nodes: ts.spatial_nodes,
+        tree_quadtree_nodes: ts.quadtree_nodes,
+        tree_max_quadtree_depth: ts.max_quadtree_depth,
+        tree_bytes: ts.bytes,
+        records_accepted: records.accepted,
+        records_rejected_non_finite: records.rejected_non_finite,
+        records_rejected_negative: records.rejected_negative,
+        records_rejected_zero_pdf: records.rejected_zero_pdf,
+        adam_steps: records.adam.steps,
+        adam_rejected: records.adam.rejected_non_finite,
+    };
+    GuidedOutput {
+        image,
+        variance,
+        spp: films.iter().map(|f| f.spp).sum(),
+        counters,
+        stats,
+        tree,
+    }
+}
