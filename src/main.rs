@@ -66,6 +66,9 @@ struct RenderArgs {
     /// Write render statistics as JSON.
     #[arg(long)]
     stats_json: Option<PathBuf>,
+    /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
+    #[arg(long)]
+    bsdf_fraction: Option<f32>,
     /// Extra images: `alpha` writes the learned BSDF fraction at the first
     /// vertex (guided methods) as OUT-alpha.exr and a false-colour PNG.
     #[arg(long, value_enum)]
@@ -157,7 +160,16 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         },
         progress: true,
         snapshot_times: Vec::new(),
+        bsdf_fraction: args.bsdf_fraction,
     };
+    if let Some(a) = args.bsdf_fraction {
+        if !(0.0..=1.0).contains(&a) {
+            return Err(format!("--bsdf-fraction must be in [0, 1], got {a}"));
+        }
+        if a == 0.0 {
+            eprintln!("warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples");
+        }
+    }
     if args.out.extension().and_then(|e| e.to_str()) != Some("exr") {
         return Err(format!(
             "--out must name an .exr file, got '{}'",

@@ -120,6 +120,8 @@ pub struct RenderOptions {
     pub progress: bool,
     /// Snapshot times for error-versus-time curves (empty: none).
     pub snapshot_times: Vec<f64>,
+    /// Guided methods: a fixed BSDF-sampling fraction instead of the learned one.
+    pub bsdf_fraction: Option<f32>,
 }
 
 #[derive(Clone, Debug, Serialize)]

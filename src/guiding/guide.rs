@@ -41,6 +41,8 @@ pub struct SdGuide<'t, M: WeightModel> {
     pub learning: bool,
     /// Salt for the records' jitter seeds (e.g. the pass index).
     pub pass: u64,
+    /// A fixed BSDF fraction instead of the learned one.
+    pub fixed_alpha: Option<f32>,
 }
 
 pub struct SdVertex<'a, W: ChildWeights> {
@@ -92,7 +94,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,
-            alpha: self.tree.bsdf_fraction(id),
+            alpha: self.fixed_alpha.unwrap_or_else(|| self.tree.bsdf_fraction(id)),
             adjoint,
         })
     }

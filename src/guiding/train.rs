@@ -198,6 +198,7 @@ pub fn render_guided<M: WeightModel>(
                 model,
                 learning: training,
                 pass,
+                fixed_alpha: opts.bsdf_fraction,
             };
             let out = render_pass(scene, &guide, &opts.path, opts.seed, pass);
             film.merge(&out.film);

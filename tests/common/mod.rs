@@ -59,6 +59,7 @@ pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool)
         },
         progress: false,
         snapshot_times: Vec::new(),
+        bsdf_fraction: None,
     };
     render(scene, &opts).expect("render")
 }
