@@ -167,7 +167,9 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             return Err(format!("--bsdf-fraction must be in [0, 1], got {a}"));
         }
         if a == 0.0 {
-            eprintln!("warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples");
+            eprintln!(
+                "warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples"
+            );
         }
     }
     if args.out.extension().and_then(|e| e.to_str()) != Some("exr") {
@@ -214,7 +216,11 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn write_alpha_aov(scene: &Scene, result: &ltcguide::render::RenderResult, out: &Path) -> Result<(), String> {
+fn write_alpha_aov(
+    scene: &Scene,
+    result: &ltcguide::render::RenderResult,
+    out: &Path,
+) -> Result<(), String> {
     let Some(tree) = &result.tree else {
         return Err("--aov alpha needs a guided method (--method radiance or product)".into());
     };
@@ -223,7 +229,10 @@ fn write_alpha_aov(scene: &Scene, result: &ltcguide::render::RenderResult, out: 
     let stem = out.with_extension("");
     let exr = PathBuf::from(format!("{}-alpha.exr", stem.display()));
     let png = exr.with_extension("png");
-    let values: Vec<glam::Vec3> = alpha.iter().map(|a| glam::Vec3::splat(a.unwrap_or(0.0))).collect();
+    let values: Vec<glam::Vec3> = alpha
+        .iter()
+        .map(|a| glam::Vec3::splat(a.unwrap_or(0.0)))
+        .collect();
     write_rgb(&exr, w, h, &values)?;
     // No vertex (background, delta-only): black.
     let rgb: Vec<u8> = alpha

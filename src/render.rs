@@ -187,12 +187,34 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let bar = progress_bar(opts.progress, len, &what.to_lowercase());
     let (image, variance, spp, counters, guiding, tree) = pool.install(|| match opts.method {
         Method::Pt => {
-            let (film, counters) = render_unguided(scene, opts, &mut clock, &mut snapshots, bar.as_ref());
-            (film.image(), film.variance_of_mean(), film.spp, counters, None, None)
+            let (film, counters) =
+                render_unguided(scene, opts, &mut clock, &mut snapshots, bar.as_ref());
+            (
+                film.image(),
+                film.variance_of_mean(),
+                film.spp,
+                counters,
+                None,
+                None,
+            )
         }
         Method::Radiance => {
-            let out = render_guided(scene, opts, &RadianceModel, &mut clock, &mut snapshots, bar.as_ref());
-            (out.image, out.variance, out.spp, out.counters, Some(out.stats), Some(out.tree))
+            let out = render_guided(
+                scene,
+                opts,
+                &RadianceModel,
+                &mut clock,
+                &mut snapshots,
+                bar.as_ref(),
+            );
+            (
+                out.image,
+                out.variance,
+                out.spp,
+                out.counters,
+                Some(out.stats),
+                Some(out.tree),
+            )
         }
     });
     if let Some(b) = bar {
@@ -246,7 +268,7 @@ fn render_unguided(
             (_, Some(s)) if clock.seconds() >= s && pass > 0 => break,
             _ => {}
         }
-        let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass);
+        let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass, None);
         film.merge(&out.film);
         counters.add(&out.counters);
         pass += 1;

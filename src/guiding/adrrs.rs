@@ -29,7 +29,7 @@ impl Default for Adrrs {
 }
 
 /// Per-thread counters; merge them after a pass.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct AdrrsStats {
     /// Calls where the window was below the throughput: survival 1.
     pub above_window: u64,

@@ -20,6 +20,10 @@ pub trait WeightModel: Sync {
     /// The weights at a vertex; `None` means the guide cannot help here
     /// (e.g. the product vanishes everywhere): sample the BSDF.
     fn weights<'a>(&'a self, ctx: &VertexContext) -> Option<Self::Weights<'a>>;
+
+    /// The reflected radiance towards ω_o (the adjoint ADRRS needs), given
+    /// the descent's root normaliser Σ_k w_k.
+    fn adjoint(&self, ctx: &VertexContext, root_total: f32) -> f32;
 }
 
 /// Practical path guiding: child weights are the stored radiance.
@@ -30,6 +34,14 @@ impl WeightModel for RadianceModel {
 
     fn weights<'a>(&'a self, _ctx: &VertexContext) -> Option<RadianceWeights> {
         Some(RadianceWeights)
+    }
+
+    /// Σ_k L_k over the four root cells is 4× the mean incident radiance;
+    /// without a BSDF integral, the reflected radiance is estimated as
+    /// albedo × mean incident radiance (exact for a diffuse surface under
+    /// uniform light).
+    fn adjoint(&self, ctx: &VertexContext, root_total: f32) -> f32 {
+        ctx.bsdf.albedo_estimate(ctx.wo_local) * 0.25 * root_total
     }
 }
 
@@ -87,14 +99,17 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         // The root normaliser: with product weights, Σ L_k·D_k estimates the
         // reflected radiance (the adjoint); with radiance weights, the
         // incident radiance integral.
-        let adjoint = descent::root_total(&leaf.sampling, &mut weights);
-        if !(adjoint > 0.0 && adjoint.is_finite()) {
+        let root_total = descent::root_total(&leaf.sampling, &mut weights);
+        if !(root_total > 0.0 && root_total.is_finite()) {
             return None;
         }
+        let adjoint = self.model.adjoint(ctx, root_total);
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,
-            alpha: self.fixed_alpha.unwrap_or_else(|| self.tree.bsdf_fraction(id)),
+            alpha: self
+                .fixed_alpha
+                .unwrap_or_else(|| self.tree.bsdf_fraction(id)),
             adjoint,
         })
     }
@@ -135,6 +150,8 @@ fn record_seed(pass: u64, v: &PathVertex) -> u64 {
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         z ^ (z >> 31)
     };
-    let pos = (v.p.x.to_bits() as u64) ^ ((v.p.y.to_bits() as u64) << 21) ^ ((v.p.z.to_bits() as u64) << 42);
+    let pos = (v.p.x.to_bits() as u64)
+        ^ ((v.p.y.to_bits() as u64) << 21)
+        ^ ((v.p.z.to_bits() as u64) << 42);
     h(pass ^ h(pos ^ h(v.depth as u64)))
 }

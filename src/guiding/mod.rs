@@ -37,12 +37,12 @@
 
 pub mod adam;
 pub mod adrrs;
+pub mod aov;
 pub mod build;
 pub mod descent;
+pub mod guide;
 pub mod quadtree;
 pub mod record;
 pub mod schedule;
 pub mod sdtree;
-pub mod guide;
 pub mod train;
-pub mod aov;

@@ -8,6 +8,7 @@ use super::record::{RecordStats, record_pass};
 use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
 use super::sdtree::{SdTree, SdTreeConfig};
 use crate::film::image::{Film, Image};
+use crate::integrator::path::RouletteMode;
 use crate::integrator::render_pass;
 use crate::integrator::stats::RenderCounters;
 use crate::math::{Spectrum, luminance};
@@ -97,7 +98,13 @@ fn iteration_variance(film: &Film, mu: &[Spectrum]) -> (f64, Vec<f32>) {
     let spp = film.spp.max(1) as f64;
     let total: f64 = sample_var
         .iter()
-        .map(|&v| if (v as f64).is_finite() { (v as f64).min(clamp) } else { clamp })
+        .map(|&v| {
+            if (v as f64).is_finite() {
+                (v as f64).min(clamp)
+            } else {
+                clamp
+            }
+        })
         .sum();
     (total / sample_var.len().max(1) as f64 / spp, sample_var)
 }
@@ -115,7 +122,13 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
     let per_film: Vec<(f64, Vec<f32>)> = films.iter().map(|f| iteration_variance(f, &mu)).collect();
     let mut weights: Vec<f64> = per_film
         .iter()
-        .map(|(v, _)| if v.is_finite() && *v > 0.0 { 1.0 / v } else { 0.0 })
+        .map(|(v, _)| {
+            if v.is_finite() && *v > 0.0 {
+                1.0 / v
+            } else {
+                0.0
+            }
+        })
         .collect();
     if weights.iter().all(|&w| w == 0.0) {
         // Noise-free (or unmeasurable): weigh by sample count.
@@ -168,7 +181,8 @@ pub fn render_guided<M: WeightModel>(
     let mut counters = RenderCounters::default();
     let mut records = RecordStats::default();
     let mut pass = 0u64;
-    let total_spp = |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
+    let total_spp =
+        |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
 
     loop {
         let step = schedule.next();
@@ -176,7 +190,10 @@ pub fn render_guided<M: WeightModel>(
         let (iteration, training, target) = match step {
             Step::Done => break,
             Step::Train { iteration, spp } => (iteration, true, Budget::Spp(spp as u32)),
-            Step::Final { iteration, remaining } => (
+            Step::Final {
+                iteration,
+                remaining,
+            } => (
                 iteration,
                 false,
                 match remaining {
@@ -185,6 +202,13 @@ pub fn render_guided<M: WeightModel>(
                     ScheduleBudget::Seconds(s) => Budget::Seconds(t0 + s),
                 },
             ),
+        };
+        // ADRRS's pixel estimates: the combination of the finished iterations.
+        let pixel_estimates: Option<Vec<f32>> = if opts.path.roulette == RouletteMode::Adrrs {
+            let refs: Vec<&Film> = films.iter().collect();
+            combine(&refs).map(|(img, _, _)| img.pixels.iter().map(|p| luminance(*p)).collect())
+        } else {
+            None
         };
         let mut film = Film::new(w, h);
         loop {
@@ -200,7 +224,14 @@ pub fn render_guided<M: WeightModel>(
                 pass,
                 fixed_alpha: opts.bsdf_fraction,
             };
-            let out = render_pass(scene, &guide, &opts.path, opts.seed, pass);
+            let out = render_pass(
+                scene,
+                &guide,
+                &opts.path,
+                opts.seed,
+                pass,
+                pixel_estimates.as_deref(),
+            );
             film.merge(&out.film);
             counters.add(&out.counters);
             if training {

@@ -45,6 +45,7 @@ pub fn render_pass<G: Guide>(
     settings: &PathSettings,
     seed: u64,
     pass: u64,
+    pixel_estimates: Option<&[f32]>,
 ) -> PassOutput<G::Recorder> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let stream_seed = pass_seed(seed, pass);
@@ -71,6 +72,7 @@ pub fn render_pass<G: Guide>(
                     &mut counters,
                     scratch,
                     &mut recorder,
+                    pixel_estimates.map_or(0.0, |e| e[index]),
                 );
             }
             (counters, recorder)

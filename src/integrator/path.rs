@@ -10,6 +10,8 @@ use crate::sampling::{Rng, power_heuristic};
 use crate::scene::Scene;
 use glam::Vec3;
 
+const ADRRS: crate::guiding::adrrs::Adrrs = crate::guiding::adrrs::Adrrs { s: 5.0 };
+
 /// How paths are terminated early.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 pub enum RouletteMode {
@@ -30,6 +32,9 @@ pub struct PathSettings {
 
 /// Depth from which classic roulette applies (Mitsuba's `rr_depth`).
 const RR_DEPTH: u32 = 5;
+
+/// Path length (segments) from which adjoint-driven roulette applies.
+const ADRRS_MIN_SEGMENTS: u32 = 2;
 
 /// Per-thread scratch reused across paths.
 pub struct PathScratch {
@@ -70,6 +75,7 @@ pub fn trace_path<G: Guide>(
     counters: &mut RenderCounters,
     scratch: &mut PathScratch,
     recorder: &mut G::Recorder,
+    pixel_estimate: f32,
 ) -> Spectrum {
     let learning = guide.learning();
     scratch.vertices.clear();
@@ -139,6 +145,28 @@ pub fn trace_path<G: Guide>(
                 wo_local: wo,
                 bsdf: &bsdf,
             });
+        }
+        // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected
+        // contribution of everything from this vertex on is throughput ×
+        // reflected radiance; keep it near the pixel's value.
+        let mut adrrs_applied = false;
+        if settings.roulette == RouletteMode::Adrrs && segments >= ADRRS_MIN_SEGMENTS {
+            if let Some(adjoint) = guide_vertex.as_ref().and_then(|g| g.adjoint_estimate()) {
+                if pixel_estimate > 0.0 {
+                    adrrs_applied = true;
+                    let t = crate::math::luminance(throughput);
+                    match ADRRS.roulette(
+                        t,
+                        pixel_estimate,
+                        adjoint,
+                        rng.next_f32(),
+                        &mut counters.adrrs,
+                    ) {
+                        Some(factor) => throughput *= factor,
+                        None => break,
+                    }
+                }
+            }
         }
         if settings.nee && !smooth_only && !scene.lights.is_empty() {
             let u_sel = rng.next_f32();
@@ -262,11 +290,11 @@ pub fn trace_path<G: Guide>(
         d = wi_world;
         segments += 1;
 
-        // Russian roulette.
+        // Classic Russian roulette (also where ADRRS had no estimates).
         match settings.roulette {
             RouletteMode::Off => {}
             RouletteMode::Classic | RouletteMode::Adrrs => {
-                if segments > RR_DEPTH {
+                if segments > RR_DEPTH && !adrrs_applied {
                     let q = (throughput.max_element() * eta_scale).min(0.95);
                     if !(rng.next_f32() < q) {
                         break;

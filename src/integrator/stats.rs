@@ -14,7 +14,13 @@ pub struct RenderCounters {
     pub invalid_scattering: u64,
     /// Guided samples whose direction fell on the wrong side of the surface.
     pub guided_below_horizon: u64,
+    /// Adjoint-driven roulette decisions.
+    #[serde(flatten)]
+    pub adrrs: AdrrsCounters,
 }
+
+/// Serialisable mirror of the ADRRS counters.
+pub type AdrrsCounters = crate::guiding::adrrs::AdrrsStats;
 
 impl RenderCounters {
     pub fn add(&mut self, o: &RenderCounters) {
@@ -24,5 +30,6 @@ impl RenderCounters {
         self.nonfinite_samples += o.nonfinite_samples;
         self.invalid_scattering += o.invalid_scattering;
         self.guided_below_horizon += o.guided_below_horizon;
+        self.adrrs.merge(&o.adrrs);
     }
 }
