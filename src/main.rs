@@ -26,6 +26,30 @@ enum Command {
     Error { image: PathBuf, reference: PathBuf },
     /// Print what a scene contains.
     Info { scene: PathBuf },
+    /// Equal-time comparison of methods: error-versus-time curves, summary and images.
+    Compare(CompareArgs),
+}
+
+#[derive(Args, Clone)]
+struct CompareArgs {
+    scene: PathBuf,
+    /// Reference image (e.g. the pack's reference.exr, or a long ltcguide render).
+    #[arg(long)]
+    reference: PathBuf,
+    /// Wall-clock budget per run in seconds, training included.
+    #[arg(long)]
+    time: f64,
+    /// Methods to compare, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "pt,radiance")]
+    methods: Vec<Method>,
+    /// Runs per method (different seeds).
+    #[arg(long, default_value_t = 3)]
+    runs: u32,
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
 }
 
 const DEFAULT_SCENE: &str = "scenes/cornell-glossy/scene.xml";
@@ -94,6 +118,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cmd_render(&args),
         Command::Error { image, reference } => cmd_error(&image, &reference),
         Command::Info { scene } => cmd_info(&scene),
+        Command::Compare(args) => cmd_compare(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -241,6 +266,38 @@ fn write_alpha_aov(
         .collect();
     ltcguide::film::png_io::write_png_rgb8(&png, w, h, &rgb)?;
     eprintln!("alpha AOV -> {} and {}", exr.display(), png.display());
+    Ok(())
+}
+
+/// Each method's default setting: PT with NEE and Mitsuba's roulette (the
+/// reference renderer's setting); guided methods as in the paper, without
+/// NEE, with adjoint-driven roulette.
+fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
+    let guided = method != Method::Pt;
+    PathSettings {
+        nee: !guided,
+        max_depth: scene.max_depth.or(Some(10)),
+        roulette: if guided { RouletteMode::Adrrs } else { RouletteMode::Classic },
+    }
+}
+
+fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
+    let scene = load(&args.scene)?;
+    let reference = read_image(&args.reference)?;
+    if !(args.time > 0.0 && args.time.is_finite()) {
+        return Err("--time must be a positive number of seconds".into());
+    }
+    let opts = ltcguide::experiment::compare::CompareOptions {
+        methods: args.methods.clone(),
+        seconds: args.time,
+        runs: args.runs,
+        threads: args.threads,
+        out_dir: args.out.clone(),
+        path_for: default_path_settings,
+        progress: true,
+    };
+    let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;
+    println!("{}", outcome.summary);
     Ok(())
 }
 

@@ -140,6 +140,9 @@ pub struct RenderStats {
     pub height: usize,
     pub counters: RenderCounters,
     pub mean_rgb: [f32; 3],
+    /// The per-scene plan: which machinery this run uses (one line).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plan: Option<String>,
     /// Guided methods: iterations, tree sizes and learning counters.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub guiding: Option<GuidingStats>,
@@ -237,6 +240,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         height: image.height,
         counters,
         mean_rgb: mean.to_array(),
+        plan: None,
         guiding,
     };
     Ok(RenderResult {

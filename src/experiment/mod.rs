@@ -2,5 +2,6 @@
 //! plots and summaries.
 
 pub mod colormap;
+pub mod compare;
 pub mod curves;
 pub mod plot;

@@ -1,0 +1,221 @@
+//! `ltcguide compare`: every method for the same wall-clock budget (training
+//! included), several seeds, error against time from snapshots, and the
+//! files a user reads: curves.csv, curves.svg, summary.md, final images and
+//! error maps.
+
+use super::colormap::log_scale_rgb;
+use super::curves::{CurveRow, MeanCurve, mean_curve, mean_std, time_to_error, to_csv};
+use super::plot::curves_svg;
+use crate::film::exr_io::write_rgb;
+use crate::film::image::Image;
+use crate::film::metrics::{mae, relmse};
+use crate::film::png_io::{write_png, write_png_rgb8};
+use crate::integrator::path::PathSettings;
+use crate::render::{Budget, Method, RenderOptions, SnapshotPlan, render};
+use crate::scene::Scene;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug)]
+pub struct CompareOptions {
+    pub methods: Vec<Method>,
+    pub seconds: f64,
+    pub runs: u32,
+    pub threads: usize,
+    pub out_dir: PathBuf,
+    /// Path settings per method (NEE and roulette differ by method).
+    pub path_for: fn(&Scene, Method) -> PathSettings,
+    pub progress: bool,
+}
+
+/// What `compare` found, for callers that build reports.
+pub struct CompareOutcome {
+    pub rows: Vec<CurveRow>,
+    pub curves: Vec<MeanCurve>,
+    pub summary: String,
+}
+
+pub fn method_name(m: Method) -> String {
+    format!("{m:?}").to_lowercase()
+}
+
+/// Snapshot times: geometric from budget/64 to the budget, 3 per doubling.
+pub fn snapshot_times(seconds: f64) -> Vec<f64> {
+    SnapshotPlan::geometric(seconds / 64.0, seconds, 3).times
+}
+
+pub fn run_compare(scene: &Scene, reference: &Image, opts: &CompareOptions) -> Result<CompareOutcome, String> {
+    if reference.width != scene.camera.width || reference.height != scene.camera.height {
+        return Err(format!(
+            "the reference is {}×{} but the scene renders {}×{}",
+            reference.width, reference.height, scene.camera.width, scene.camera.height
+        ));
+    }
+    if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
+        return Err("compare needs at least one method, one run and a positive time".into());
+    }
+    std::fs::create_dir_all(&opts.out_dir).map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
+    let mut rows = Vec::new();
+    let mut notes = Vec::new();
+    for &method in &opts.methods {
+        let name = method_name(method);
+        for run in 0..opts.runs {
+            if opts.progress {
+                eprintln!("compare: {name}, run {} of {}, {:.0} s", run + 1, opts.runs, opts.seconds);
+            }
+            let ropts = RenderOptions {
+                method,
+                budget: Budget::Seconds(opts.seconds),
+                seed: 1000 + run as u64,
+                threads: opts.threads,
+                path: (opts.path_for)(scene, method),
+                progress: opts.progress,
+                snapshot_times: snapshot_times(opts.seconds),
+                bsdf_fraction: None,
+            };
+            let result = render(scene, &ropts)?;
+            for s in &result.snapshots {
+                rows.push(CurveRow {
+                    method: name.clone(),
+                    run,
+                    seconds: s.seconds,
+                    spp: s.spp,
+                    mae: mae(&s.image, reference)?,
+                    relmse: relmse(&s.image, reference)?,
+                });
+            }
+            rows.push(CurveRow {
+                method: name.clone(),
+                run,
+                seconds: result.stats.seconds,
+                spp: result.stats.spp,
+                mae: mae(&result.image, reference)?,
+                relmse: relmse(&result.image, reference)?,
+            });
+            if run == 0 {
+                write_final_images(&opts.out_dir, &name, &result.image, reference)?;
+                if let Some(plan) = &result.stats.plan {
+                    notes.push(format!("{name}: {plan}"));
+                }
+            }
+        }
+    }
+    let csv = to_csv(&rows);
+    write_atomic(&opts.out_dir.join("curves.csv"), csv.as_bytes())?;
+    let curves: Vec<MeanCurve> = opts.methods.iter().map(|&m| mean_curve(&rows, &method_name(m))).collect();
+    let svg = curves_svg(&format!("{} — error vs time ({} runs)", scene.name, opts.runs), &curves)?;
+    write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
+    let summary = summary_markdown(scene, opts, &rows, &curves, &notes);
+    write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
+    Ok(CompareOutcome { rows, curves, summary })
+}
+
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let tmp = crate::film::temp_path_for(path);
+    std::fs::write(&tmp, bytes).map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
+    crate::film::commit_temp(&tmp, path)
+}
+
+fn write_final_images(dir: &Path, name: &str, image: &Image, reference: &Image) -> Result<(), String> {
+    write_rgb(&dir.join(format!("{name}.exr")), image.width, image.height, &image.pixels)?;
+    write_png(&dir.join(format!("{name}.png")), image)?;
+    // Per-pixel relative error |I − R| / (R + 0.01) on a log scale.
+    let err: Vec<f32> = image
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .map(|(i, r)| {
+            let e = (*i - *r).abs() / (r.abs() + glam::Vec3::splat(0.01));
+            (e.x + e.y + e.z) / 3.0
+        })
+        .collect();
+    let rgb = log_scale_rgb(&err, 1e-3, 10.0);
+    write_png_rgb8(&dir.join(format!("{name}-error.png")), image.width, image.height, &rgb)
+}
+
+/// The CPU model, from /proc/cpuinfo where available.
+pub fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string())
+}
+
+fn summary_markdown(scene: &Scene, opts: &CompareOptions, rows: &[CurveRow], curves: &[MeanCurve], notes: &[String]) -> String {
+    let mut s = String::new();
+    let threads = if opts.threads == 0 { rayon::current_num_threads() } else { opts.threads };
+    let _ = writeln!(s, "# {}: equal-time comparison\n", scene.name);
+    let _ = writeln!(
+        s,
+        "Budget {:.1} s per run (training included), {} runs per method (seeds 1000…), {} threads, {}.\n",
+        opts.seconds,
+        opts.runs,
+        threads,
+        cpu_model()
+    );
+    let _ = writeln!(s, "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    let finals = |m: &str| -> Vec<&CurveRow> {
+        let mut last: Vec<&CurveRow> = Vec::new();
+        for run in 0..opts.runs {
+            if let Some(r) = rows.iter().filter(|r| r.method == m && r.run == run).last() {
+                last.push(r);
+            }
+        }
+        last
+    };
+    for c in curves {
+        let f = finals(&c.method);
+        let (rm, rs) = mean_std(&f.iter().map(|r| r.relmse).collect::<Vec<_>>());
+        let (mm, ms) = mean_std(&f.iter().map(|r| r.mae).collect::<Vec<_>>());
+        let spp = f.iter().map(|r| r.spp as f64).sum::<f64>() / f.len().max(1) as f64;
+        let _ = writeln!(s, "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |", c.method, spp, rm, rs, mm, ms);
+    }
+    if let Some(base) = curves.iter().find(|c| c.method == "radiance") {
+        let _ = writeln!(s, "\n## Time-to-error speedup relative to `radiance`\n");
+        let _ = writeln!(
+            s,
+            "How much sooner each method's mean curve reaches the final mean error of `radiance` \
+             (ratio of times; > 1 means faster; — means it never gets there within the budget).\n"
+        );
+        let _ = writeln!(s, "| method | relMSE | MAE |");
+        let _ = writeln!(s, "|---|---|---|");
+        let target = |pick: fn(&MeanCurve) -> &Vec<(f64, f64)>| -> Option<(f64, f64)> {
+            let errs: Vec<f64> = pick(base).iter().map(|e| e.0).collect();
+            let t_base = *base.seconds.last()?;
+            Some((*errs.last()?, t_base))
+        };
+        for c in curves {
+            let cell = |pick: fn(&MeanCurve) -> &Vec<(f64, f64)>| -> String {
+                match target(pick) {
+                    Some((err, t_base)) => {
+                        let errs: Vec<f64> = pick(c).iter().map(|e| e.0).collect();
+                        match time_to_error(&c.seconds, &errs, err) {
+                            Some(t) => format!("{:.2}×", t_base / t),
+                            None => "—".into(),
+                        }
+                    }
+                    None => "—".into(),
+                }
+            };
+            let _ = writeln!(s, "| {} | {} | {} |", c.method, cell(|c| &c.relmse), cell(|c| &c.mae));
+        }
+    }
+    if !notes.is_empty() {
+        let _ = writeln!(s, "\n## Per-scene plan\n");
+        for n in notes {
+            let _ = writeln!(s, "- {n}");
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`, `<method>.exr/png` (first run), \
+         `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
+    );
+    s
+}
