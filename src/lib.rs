@@ -4,6 +4,7 @@
 pub mod bsdf;
 pub mod directional;
 pub mod film;
+pub mod ltc;
 pub mod math;
 pub mod sampling;
 pub mod stats;

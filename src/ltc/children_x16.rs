@@ -1,0 +1,228 @@
+//! The 16-wide child kernel: the 4 children × 4 edges of a node in one
+//! f32x16, as in the paper (lane 4k + e is edge e of child k).
+//!
+//! Every lane builds its two edge endpoints from the node's 3×3 corner grid,
+//! maps them into the lobe's cosine space and evaluates θ·(a×b)/|a×b| with
+//! the same operations, in the same order, as the scalar kernel
+//! ([`super::polygon::edge_vector`]); the per-child sums use the scalar
+//! kernel's order, (e0 + e1) + (e2 + e3), so both agree lane for lane.
+//! Coarse nodes whose children have subdivided parallels batch their edges
+//! 16 at a time; deep nodes use the shared density × solid-angle path.
+
+use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_grid};
+use super::polygon::{TAN_PI_8, cell_polygon_f32, is_plain_quad_depth, transform_rows};
+use crate::directional::Cell;
+use glam::Vec3;
+use wide::f32x16;
+
+// Corner-grid indices (height, azimuth) of each lane's endpoints a and b.
+// Child k = (iu, iv) = (k & 1, k >> 1); its edges run (iu,iv)→(iu,iv+1)→
+// (iu+1,iv+1)→(iu+1,iv)→(iu,iv), the winding of the scalar polygons.
+const fn lane_tables() -> [[f32; 16]; 4] {
+    let mut t = [[0.0f32; 16]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let (iu, iv) = ((k & 1) as f32, (k >> 1) as f32);
+        let corners = [
+            (iu, iv),
+            (iu, iv + 1.0),
+            (iu + 1.0, iv + 1.0),
+            (iu + 1.0, iv),
+        ];
+        let mut e = 0;
+        while e < 4 {
+            let a = corners[e];
+            let b = corners[(e + 1) % 4];
+            t[0][4 * k + e] = a.0;
+            t[1][4 * k + e] = a.1;
+            t[2][4 * k + e] = b.0;
+            t[3][4 * k + e] = b.1;
+            e += 1;
+        }
+        k += 1;
+    }
+    t
+}
+const LANES: [[f32; 16]; 4] = lane_tables();
+
+#[inline(always)]
+fn splat(v: f32) -> f32x16 {
+    f32x16::splat(v)
+}
+
+/// atan on the reduced range (see [`super::polygon::atan_reduced`]).
+#[inline(always)]
+fn atan_reduced(t: f32x16) -> f32x16 {
+    let u = t * t;
+    let mut p = splat(-1.0 / 15.0);
+    p = p.mul_add(u, splat(1.0 / 13.0));
+    p = p.mul_add(u, splat(-1.0 / 11.0));
+    p = p.mul_add(u, splat(1.0 / 9.0));
+    p = p.mul_add(u, splat(-1.0 / 7.0));
+    p = p.mul_add(u, splat(1.0 / 5.0));
+    p = p.mul_add(u, splat(-1.0 / 3.0));
+    p = p.mul_add(u, splat(1.0));
+    t * p
+}
+
+/// atan2(s, d) for s ≥ 0 (see [`super::polygon::atan2_nonneg`]).
+#[inline(always)]
+fn atan2_nonneg(s: f32x16, d: f32x16) -> f32x16 {
+    let a = d.abs();
+    let swap = s.simd_gt(a);
+    let num = swap.bitselect(a, s);
+    let den = swap.bitselect(s, a);
+    let t = num / den.max(splat(1e-30));
+    let big = t.simd_gt(splat(TAN_PI_8));
+    let arg = big.bitselect((t - splat(1.0)) / (t + splat(1.0)), t);
+    let base = big.bitselect(splat(std::f32::consts::FRAC_PI_4), splat(0.0));
+    let at = base + atan_reduced(arg);
+    let th = swap.bitselect(splat(std::f32::consts::FRAC_PI_2) - at, at);
+    d.simd_lt(splat(0.0))
+        .bitselect(splat(std::f32::consts::PI) - th, th)
+}
+
+/// sin, cos of 2π·v (see [`super::polygon::sincos_turns`]).
+#[inline(always)]
+fn sincos_turns(v: f32x16) -> (f32x16, f32x16) {
+    let q = v * splat(4.0);
+    let qi = q.floor();
+    let x = (q - qi) * splat(std::f32::consts::FRAC_PI_2);
+    let u = x * x;
+    let mut s = splat(1.0 / 6_227_020_800.0);
+    s = s.mul_add(u, splat(-1.0 / 39_916_800.0));
+    s = s.mul_add(u, splat(1.0 / 362_880.0));
+    s = s.mul_add(u, splat(-1.0 / 5040.0));
+    s = s.mul_add(u, splat(1.0 / 120.0));
+    s = s.mul_add(u, splat(-1.0 / 6.0));
+    s = s.mul_add(u, splat(1.0));
+    let s = x * s;
+    let mut c = splat(-1.0 / 87_178_291_200.0);
+    c = c.mul_add(u, splat(1.0 / 479_001_600.0));
+    c = c.mul_add(u, splat(-1.0 / 3_628_800.0));
+    c = c.mul_add(u, splat(1.0 / 40320.0));
+    c = c.mul_add(u, splat(-1.0 / 720.0));
+    c = c.mul_add(u, splat(1.0 / 24.0));
+    c = c.mul_add(u, splat(-0.5));
+    c = c.mul_add(u, splat(1.0));
+    let quadrant = qi - (qi * splat(0.25)).floor() * splat(4.0);
+    let q1 = quadrant.simd_eq(splat(1.0));
+    let q2 = quadrant.simd_eq(splat(2.0));
+    let q3 = quadrant.simd_eq(splat(3.0));
+    let sin = q3.bitselect(-c, q2.bitselect(-s, q1.bitselect(c, s)));
+    let cos = q3.bitselect(s, q2.bitselect(-c, q1.bitselect(-s, c)));
+    (sin, cos)
+}
+
+#[inline(always)]
+fn transform(rows: &[[f32; 3]; 3], x: f32x16, y: f32x16, z: f32x16) -> [f32x16; 3] {
+    let r = |i: usize| {
+        splat(rows[i][2]).mul_add(z, splat(rows[i][1]).mul_add(y, splat(rows[i][0]) * x))
+    };
+    [r(0), r(1), r(2)]
+}
+
+/// θ·(a×b)/|a×b| on 16 lanes.
+#[inline(always)]
+fn edge_vectors(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
+    let cx = a[1] * b[2] - a[2] * b[1];
+    let cy = a[2] * b[0] - a[0] * b[2];
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let s = (cx * cx + cy * cy + cz * cz).sqrt();
+    let k = atan2_nonneg(s, d) / s.max(splat(1e-30));
+    [cx * k, cy * k, cz * k]
+}
+
+/// World points of the corner grid for lane indices (zi, vi).
+#[inline(always)]
+fn grid_points(u: f32, w: f32, h: f32, zi: f32x16, vi: f32x16) -> [f32x16; 3] {
+    let z = ((splat(u) + zi) * splat(h)).mul_add(splat(2.0), splat(-1.0));
+    let v = (splat(w) + vi) * splat(h);
+    let r = (splat(1.0) - z * z).max(splat(0.0)).sqrt();
+    let (s, c) = sincos_turns(v);
+    [r * c, r * s, z]
+}
+
+/// Edge sums (2π·F, winding as built) of the 4 plain-quad children.
+pub fn children_edge_sums_x16(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
+    debug_assert_eq!(child_grid(cell).0[0], {
+        let h = 1.0 / (1u64 << (cell.depth + 1)) as f32;
+        ((2 * cell.ix) as f32 * h).mul_add(2.0, -1.0)
+    });
+    let h = 1.0 / (1u64 << (cell.depth + 1)) as f32;
+    let (u, w) = ((2 * cell.ix) as f32, (2 * cell.iy) as f32);
+    let pa = grid_points(u, w, h, f32x16::from(LANES[0]), f32x16::from(LANES[1]));
+    let pb = grid_points(u, w, h, f32x16::from(LANES[2]), f32x16::from(LANES[3]));
+    let ta = transform(&g.rows, pa[0], pa[1], pa[2]);
+    let tb = transform(&g.rows, pb[0], pb[1], pb[2]);
+    // Lanes 4k..4k+3 hold every corner of child k as an edge start.
+    let above = ta[2].simd_ge(splat(0.0)).to_bitmask();
+    let below = ta[2].simd_le(splat(0.0)).to_bitmask();
+    let e = edge_vectors(ta, tb);
+    let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
+    let sums = std::array::from_fn(|k| {
+        let l = 4 * k;
+        Vec3::new(
+            (x[l] + x[l + 1]) + (x[l + 2] + x[l + 3]),
+            (y[l] + y[l + 1]) + (y[l + 2] + y[l + 3]),
+            (z[l] + z[l + 1]) + (z[l + 2] + z[l + 3]),
+        )
+    });
+    let sides =
+        std::array::from_fn(|k| HorizonSide::of_masks(above >> (4 * k), below >> (4 * k), 0xF));
+    (sums, sides)
+}
+
+/// Edge sums of children with subdivided parallels, 16 edges per batch,
+/// accumulated in polygon order like the scalar kernel.
+pub fn children_edge_sums_batched(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
+    let mut poly = Vec::with_capacity(80);
+    let mut sums = [Vec3::ZERO; 4];
+    let mut sides = [HorizonSide::Above; 4];
+    for (k, sum) in sums.iter_mut().enumerate() {
+        cell_polygon_f32(cell.child(k), &mut poly);
+        for v in poly.iter_mut() {
+            *v = transform_rows(&g.rows, *v);
+        }
+        sides[k] = HorizonSide::of_vertices(&poly);
+        let n = poly.len();
+        let mut start = 0;
+        while start < n {
+            let mut a = [[0.0f32; 16]; 3];
+            let mut b = [[0.0f32; 16]; 3];
+            let count = (n - start).min(16);
+            for l in 0..count {
+                let (p, q) = (poly[start + l], poly[(start + l + 1) % n]);
+                for c in 0..3 {
+                    a[c][l] = p[c];
+                    b[c][l] = q[c];
+                }
+            }
+            let e = edge_vectors(a.map(f32x16::from), b.map(f32x16::from));
+            let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
+            for l in 0..count {
+                *sum += Vec3::new(x[l], y[l], z[l]);
+            }
+            start += count;
+        }
+    }
+    (sums, sides)
+}
+
+/// The 4 child integrals of a glossy lobe, 16 lanes wide.
+pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
+    let depth = cell.depth + 1;
+    if depth <= EXACT_CLIP_DEPTH {
+        return g.children_reference(cell);
+    }
+    if depth >= deep_depth {
+        return g.children_deep(cell);
+    }
+    let (sums, sides) = if is_plain_quad_depth(depth) {
+        children_edge_sums_x16(g, cell)
+    } else {
+        children_edge_sums_batched(g, cell)
+    };
+    g.finish_children(cell, sums, sides)
+}

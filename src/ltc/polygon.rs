@@ -1,0 +1,268 @@
+//! Integrals of a clamped cosine over (transformed) spherical polygons, and
+//! the polygons that stand in for the cylindrical cells.
+//!
+//! A cell's meridians are great arcs, exact under any linear map; its
+//! parallels are small circles, replaced by chords (great arcs between
+//! points of the parallel). A chord spanning Δφ on a parallel of polar angle
+//! θ misses a sliver of relative area ~ sin²θ·cos θ·Δφ²/12, so coarse cells
+//! subdivide their parallels until every chord spans at most
+//! [`MAX_CHORD_TURNS`] of a turn; the equator is itself a great circle and
+//! only needs a midpoint to break the antipodal level-1 corners; the poles
+//! are degenerate parallels whose zero-length edges contribute exactly 0.
+//!
+//! Two integrators:
+//! - the f64 **reference** clips the polygon exactly at the horizon
+//!   (Sutherland–Hodgman on the great-circle arcs, which are segments
+//!   before normalisation) and sums θ·(a×b)_z/|a×b| with the robust angle
+//!   θ = atan2(|a×b|, a·b);
+//! - the f32 **fast path** returns the unclipped vector form factor
+//!   F = Σ θ_e·n̂_e/2π for the sphere-clipping approximation. Its angle uses
+//!   the same atan2 evaluated with our own range-reduced polynomial, so the
+//!   scalar and 16-wide kernels compute identical lanes.
+//!
+//! Both integrands are invariant to the lengths of the vertices (θ and n̂
+//! only depend on directions), so transformed vertices are never normalised.
+
+use crate::directional::Cell;
+use glam::{DMat3, DVec3, Vec3};
+use std::f64::consts::PI;
+
+/// Largest φ-span of a chord on a parallel, in turns (2π/64).
+pub const MAX_CHORD_TURNS: f64 = 1.0 / 64.0;
+
+/// Number of chords replacing the parallel at height `z` of a cell at `depth`.
+pub fn parallel_segments(depth: u32, z: f64) -> usize {
+    let span = 1.0 / (1u64 << depth.min(62)) as f64;
+    if z.abs() >= 1.0 {
+        1
+    } else if z == 0.0 {
+        if span > 0.25 { 2 } else { 1 }
+    } else {
+        (span / MAX_CHORD_TURNS).ceil().max(1.0) as usize
+    }
+}
+
+/// True when no parallel of a cell at this depth is subdivided.
+pub fn is_plain_quad_depth(depth: u32) -> bool {
+    1.0 / (1u64 << depth.min(62)) as f64 <= MAX_CHORD_TURNS
+}
+
+/// The polygon of a cell in world space (f64), counter-clockwise seen from
+/// outside: along the lower parallel with increasing φ, up a meridian, back
+/// along the upper parallel, down the first meridian.
+pub fn cell_polygon_f64(cell: Cell, out: &mut Vec<DVec3>) {
+    out.clear();
+    let b = cell.bounds();
+    let dir = |z: f64, phi: f64| {
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    };
+    let n0 = parallel_segments(cell.depth, b.z0);
+    for k in 0..=n0 {
+        out.push(dir(b.z0, b.phi0 + (b.phi1 - b.phi0) * k as f64 / n0 as f64));
+    }
+    let n1 = parallel_segments(cell.depth, b.z1);
+    for k in 0..=n1 {
+        out.push(dir(b.z1, b.phi1 - (b.phi1 - b.phi0) * k as f64 / n1 as f64));
+    }
+}
+
+/// Signed ∫ max(0, ω_z)/π dω over the polygon with the given (unnormalised)
+/// vertices, clipped exactly at z = 0; positive for counter-clockwise
+/// polygons seen from outside.
+pub fn clipped_cosine_integral_f64(verts: &[DVec3], scratch: &mut Vec<DVec3>) -> f64 {
+    scratch.clear();
+    let n = verts.len();
+    for i in 0..n {
+        let a = verts[i];
+        let b = verts[(i + 1) % n];
+        if a.z >= 0.0 {
+            scratch.push(a);
+        }
+        if (a.z >= 0.0) != (b.z >= 0.0) {
+            // The arc between a and b is the image of the segment [a, b].
+            let t = a.z / (a.z - b.z);
+            let mut p = a + (b - a) * t;
+            p.z = 0.0;
+            scratch.push(p);
+        }
+    }
+    let m = scratch.len();
+    if m < 3 {
+        return 0.0;
+    }
+    let mut sum = 0.0;
+    for i in 0..m {
+        let a = scratch[i];
+        let b = scratch[(i + 1) % m];
+        let c = a.cross(b);
+        let s = c.length();
+        if s > 0.0 {
+            sum += s.atan2(a.dot(b)) * c.z / s;
+        }
+    }
+    sum / (2.0 * PI)
+}
+
+/// Reference integral of the LTC whose world→cosine map is `a` over a cell:
+/// exact clipping, f64, chord polygon.
+pub fn cell_integral_reference(cell: Cell, a: &DMat3, orientation: f64) -> f64 {
+    let mut poly = Vec::with_capacity(16);
+    let mut scratch = Vec::with_capacity(24);
+    cell_polygon_f64(cell, &mut poly);
+    for v in poly.iter_mut() {
+        *v = *a * *v;
+    }
+    (orientation * clipped_cosine_integral_f64(&poly, &mut scratch)).max(0.0)
+}
+
+/// tan(π/8): above it, atan(t) = π/4 + atan((t−1)/(t+1)).
+pub const TAN_PI_8: f32 = 0.414_213_57;
+
+/// atan on [−tan(π/8), tan(π/8)] by its Taylor series to t^15
+/// (relative error < 5e-8 on that range).
+#[inline(always)]
+pub fn atan_reduced(t: f32) -> f32 {
+    let u = t * t;
+    let mut p = -1.0 / 15.0f32;
+    p = p.mul_add(u, 1.0 / 13.0);
+    p = p.mul_add(u, -1.0 / 11.0);
+    p = p.mul_add(u, 1.0 / 9.0);
+    p = p.mul_add(u, -1.0 / 7.0);
+    p = p.mul_add(u, 1.0 / 5.0);
+    p = p.mul_add(u, -1.0 / 3.0);
+    p = p.mul_add(u, 1.0);
+    t * p
+}
+
+/// atan2(s, d) for s ≥ 0, in f32, with the operations the wide kernel uses.
+#[inline(always)]
+pub fn atan2_nonneg(s: f32, d: f32) -> f32 {
+    let a = d.abs();
+    let swap = s > a;
+    let num = if swap { a } else { s };
+    let den = if swap { s } else { a };
+    let t = num / den.max(1e-30);
+    let big = t > TAN_PI_8;
+    let arg = if big { (t - 1.0) / (t + 1.0) } else { t };
+    let base = if big {
+        std::f32::consts::FRAC_PI_4
+    } else {
+        0.0
+    };
+    let at = base + atan_reduced(arg);
+    let th = if swap {
+        std::f32::consts::FRAC_PI_2 - at
+    } else {
+        at
+    };
+    if d < 0.0 {
+        std::f32::consts::PI - th
+    } else {
+        th
+    }
+}
+
+/// θ_ab·(a×b)/|a×b| for unnormalised a, b; exactly antisymmetric in (a, b)
+/// (no fused products), and 0 for a degenerate edge.
+#[inline(always)]
+pub fn edge_vector(a: Vec3, b: Vec3) -> Vec3 {
+    let c = Vec3::new(
+        a.y * b.z - a.z * b.y,
+        a.z * b.x - a.x * b.z,
+        a.x * b.y - a.y * b.x,
+    );
+    let d = a.x * b.x + a.y * b.y + a.z * b.z;
+    let s = (c.x * c.x + c.y * c.y + c.z * c.z).sqrt();
+    let k = atan2_nonneg(s, d) / s.max(1e-30);
+    c * k
+}
+
+/// sin and cos of 2π·v for v ∈ [0, 1], accurate to a few 1e-8 absolute:
+/// the quadrant is split off exactly, so no error of 2π·v is amplified.
+#[inline(always)]
+pub fn sincos_turns(v: f32) -> (f32, f32) {
+    let q = v * 4.0;
+    let qi = q.floor();
+    let x = (q - qi) * std::f32::consts::FRAC_PI_2;
+    let (s, c) = sincos_quarter(x);
+    match (qi as i32) & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// sin x and cos x for x ∈ [0, π/2] by Taylor series (to x^13 and x^14).
+#[inline(always)]
+pub fn sincos_quarter(x: f32) -> (f32, f32) {
+    let u = x * x;
+    let mut s = 1.0 / 6_227_020_800.0f32;
+    s = s.mul_add(u, -1.0 / 39_916_800.0);
+    s = s.mul_add(u, 1.0 / 362_880.0);
+    s = s.mul_add(u, -1.0 / 5040.0);
+    s = s.mul_add(u, 1.0 / 120.0);
+    s = s.mul_add(u, -1.0 / 6.0);
+    s = s.mul_add(u, 1.0);
+    let mut c = -1.0 / 87_178_291_200.0f32;
+    c = c.mul_add(u, 1.0 / 479_001_600.0);
+    c = c.mul_add(u, -1.0 / 3_628_800.0);
+    c = c.mul_add(u, 1.0 / 40320.0);
+    c = c.mul_add(u, -1.0 / 720.0);
+    c = c.mul_add(u, 1.0 / 24.0);
+    c = c.mul_add(u, -0.5);
+    c = c.mul_add(u, 1.0);
+    (x * s, c)
+}
+
+/// World direction at height z (exact in f32 for cells up to depth 23) and
+/// azimuth v (in turns).
+#[inline(always)]
+pub fn cell_point_f32(z: f32, v: f32) -> Vec3 {
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = sincos_turns(v);
+    Vec3::new(r * c, r * s, z)
+}
+
+/// The 3×3 world-to-cosine map applied with the operation order shared by
+/// the scalar and wide kernels. `a` is given by rows.
+#[inline(always)]
+pub fn transform_rows(a: &[[f32; 3]; 3], v: Vec3) -> Vec3 {
+    Vec3::new(
+        a[0][2].mul_add(v.z, a[0][1].mul_add(v.y, a[0][0] * v.x)),
+        a[1][2].mul_add(v.z, a[1][1].mul_add(v.y, a[1][0] * v.x)),
+        a[2][2].mul_add(v.z, a[2][1].mul_add(v.y, a[2][0] * v.x)),
+    )
+}
+
+/// The f32 chord polygon of a cell (any depth), vertices in world space.
+pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
+    out.clear();
+    let b = cell.bounds();
+    let scale = 1.0 / (1u64 << cell.depth) as f32;
+    let v0 = cell.iy as f32 * scale;
+    let (z0, z1) = (b.z0 as f32, b.z1 as f32);
+    let n0 = parallel_segments(cell.depth, b.z0);
+    for k in 0..=n0 {
+        out.push(cell_point_f32(z0, v0 + scale * k as f32 / n0 as f32));
+    }
+    let n1 = parallel_segments(cell.depth, b.z1);
+    for k in 0..=n1 {
+        out.push(cell_point_f32(
+            z1,
+            v0 + scale - scale * k as f32 / n1 as f32,
+        ));
+    }
+}
+
+/// Unclipped F (times 2π) of a polygon whose vertices are already in cosine
+/// space, summed edge by edge in order.
+pub fn polygon_edge_sum(verts: &[Vec3]) -> Vec3 {
+    let n = verts.len();
+    let mut f = Vec3::ZERO;
+    for i in 0..n {
+        f += edge_vector(verts[i], verts[(i + 1) % n]);
+    }
+    f
+}
