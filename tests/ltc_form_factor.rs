@@ -1,13 +1,10 @@
 //! Exact cylindrical-cell form factors against Monte Carlo over the cells,
-//! the precomputed levels against the closed form, and the midpoint rule's
-//! error at the depth where it takes over.
+//! the precomputed levels against the closed form, and the f32 hot-path
+//! form factors against the closed form at every depth.
 
 use glam::DVec3;
 use ltcguide::directional::Cell;
-use ltcguide::ltc::form_factor::{
-    MIDPOINT_DEPTH, MIDPOINT_POLE_MARGIN, PRECOMPUTED_DEPTH, cell_form_factor,
-    cell_form_factor_midpoint, form_factor, uses_midpoint,
-};
+use ltcguide::ltc::form_factor::{PRECOMPUTED_DEPTH, cell_form_factor, form_factor};
 use ltcguide::sampling::Rng;
 use std::f64::consts::PI;
 
@@ -89,33 +86,42 @@ fn precomputed_levels_equal_the_closed_form_and_children_sum() {
 }
 
 #[test]
-fn midpoint_rule_is_accurate_where_it_takes_over() {
+fn f32_children_form_factors_match_the_closed_form_at_every_depth() {
+    use ltcguide::ltc::form_factor::children_form_factors_f32;
+    let mut rng = Rng::new(4, 4);
     let mut worst = 0.0f64;
-    let n = 1u32 << MIDPOINT_DEPTH;
-    let m = MIDPOINT_POLE_MARGIN;
-    for &(ix, iy) in &[
-        (0, 0),
-        (m, 7),
-        (n - 1 - m, 7),
-        (n / 2, n / 3),
-        (n / 7, n - 1),
-        (1, 1),
-        (n - 1, 5),
-    ] {
-        let cell = Cell {
-            depth: MIDPOINT_DEPTH,
-            ix,
-            iy,
-        };
-        let exact = cell_form_factor(cell);
-        // What the runtime uses: midpoint away from the poles, closed form near them.
-        let used = form_factor(cell).as_dvec3();
-        worst = worst.max((exact - used).length() / exact.length());
-        if uses_midpoint(cell) {
-            let mid = cell_form_factor_midpoint(cell);
-            assert!((exact - mid).length() / exact.length() < 1e-6, "{cell:?}");
+    for depth in 5..20u32 {
+        let n = 1u32 << depth;
+        for _ in 0..50 {
+            let cell = Cell {
+                depth,
+                ix: rng.next_u32() % n,
+                iy: rng.next_u32() % n,
+            };
+            let got = children_form_factors_f32(cell);
+            for k in 0..4 {
+                let exact = cell_form_factor(cell.child(k));
+                let err = (got[k].as_dvec3() - exact).length() / exact.length();
+                worst = worst.max(err);
+            }
+        }
+        // Both poles.
+        for ix in [0, n - 1] {
+            let cell = Cell {
+                depth,
+                ix,
+                iy: 3 % n,
+            };
+            let got = children_form_factors_f32(cell);
+            for k in 0..4 {
+                let exact = cell_form_factor(cell.child(k));
+                assert!(
+                    (got[k].as_dvec3() - exact).length() <= 1e-5 * exact.length(),
+                    "{cell:?}"
+                );
+            }
         }
     }
-    println!("midpoint form factor at depth {MIDPOINT_DEPTH}: max relative error {worst:.2e}");
-    assert!(worst < 1e-6, "{worst}"); // f32 storage of the result dominates
+    println!("f32 Gauss form factors, depths 6..20: max relative error {worst:.2e}");
+    assert!(worst < 2e-5, "{worst}");
 }

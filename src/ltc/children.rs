@@ -27,7 +27,7 @@ use super::children_x16;
 use super::form_factor;
 use super::polygon::{
     cell_integral_reference, cell_point_f32, cell_polygon_f32, edge_vector, is_plain_quad_depth,
-    polygon_edge_sum, transform_rows,
+    polygon_edge_sum, sincos_turns, transform_rows,
 };
 use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
@@ -70,7 +70,7 @@ pub const EXACT_CLIP_DEPTH: u32 = 1;
 
 /// Cell size in cosine space below which f32 edge sums are less accurate
 /// than D(centre)·Ω (see `tests/ltc_deep_switch.rs`).
-pub const DEFAULT_DEEP_CELL_SIZE: f32 = 4e-3;
+pub const DEFAULT_DEEP_CELL_SIZE: f32 = 0.088;
 
 /// Children up to this depth that straddle the horizon are clipped exactly
 /// (f64): the sphere approximation is poor for such large polygons.
@@ -254,10 +254,13 @@ impl GlossyLtc {
     /// reversed).
     pub fn children_edge_sums_grid(&self, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
         let (z, v) = child_grid(cell);
+        let sc = v.map(sincos_turns);
+        let r = z.map(|z| (1.0 - z * z).max(0.0).sqrt());
         let mut p = [[Vec3::ZERO; 3]; 3];
         for (zi, row) in p.iter_mut().enumerate() {
             for (vi, q) in row.iter_mut().enumerate() {
-                *q = transform_rows(&self.rows, cell_point_f32(z[zi], v[vi]));
+                let (s, c) = sc[vi];
+                *q = transform_rows(&self.rows, Vec3::new(r[zi] * c, r[zi] * s, z[zi]));
             }
         }
         // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
@@ -339,7 +342,6 @@ pub struct ShadingLtc {
     pub glossy_count: usize,
     pub cos_theta_o: f32,
     grazing_cos: f32,
-    deep_cell_size: f32,
     total: f32,
 }
 
@@ -425,7 +427,6 @@ impl ShadingLtc {
             glossy_count,
             cos_theta_o,
             grazing_cos: opts.grazing_theta_deg.to_radians().cos(),
-            deep_cell_size: opts.deep_cell_size,
             total: guard(total),
         }
     }
@@ -510,17 +511,11 @@ impl ShadingLtc {
                 }
             });
         }
-        let scale = cell.child(0).solid_angle() as f32 / PI;
-        let (z, v) = child_centres(cell);
-        std::array::from_fn(|k| {
-            let child = cell.child(k);
-            let f = if form_factor::uses_midpoint(child) {
-                // The f32 midpoint: no f64 trigonometry on deep levels.
-                cell_point_f32(z[k & 1], v[k >> 1]) * scale
-            } else {
-                form_factor::form_factor(child)
-            };
-            clipped_integral(f.dot(self.normal), f.length_squared())
-        })
+        let f = if cell.depth < form_factor::PRECOMPUTED_DEPTH {
+            std::array::from_fn(|k| form_factor::form_factor(cell.child(k)))
+        } else {
+            form_factor::children_form_factors_f32(cell)
+        };
+        f.map(|f| clipped_integral(f.dot(self.normal), f.length_squared()))
     }
 }

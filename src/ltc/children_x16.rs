@@ -9,7 +9,7 @@
 //! Coarse nodes whose children have subdivided parallels batch their edges
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
-use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_grid};
+use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide};
 use super::polygon::{TAN_PI_8, cell_polygon_f32, is_plain_quad_depth, transform_rows};
 use crate::directional::Cell;
 use glam::Vec3;
@@ -65,21 +65,26 @@ fn atan_reduced(t: f32x16) -> f32x16 {
     t * p
 }
 
-/// atan2(s, d) for s ≥ 0 (see [`super::polygon::atan2_nonneg`]).
+/// θ/s (see [`super::polygon::theta_over_s`]).
 #[inline(always)]
-fn atan2_nonneg(s: f32x16, d: f32x16) -> f32x16 {
+fn theta_over_s(s: f32x16, d: f32x16) -> f32x16 {
+    let s = s.fast_max(splat(1e-30));
     let a = d.abs();
     let swap = s.simd_gt(a);
     let num = swap.bitselect(a, s);
     let den = swap.bitselect(s, a);
-    let t = num / den.max(splat(1e-30));
+    let sum = num + den;
+    let r = splat(1.0) / (den * sum * s).fast_max(splat(1e-37));
+    let t = num * sum * s * r;
     let big = t.simd_gt(splat(TAN_PI_8));
-    let arg = big.bitselect((t - splat(1.0)) / (t + splat(1.0)), t);
+    let arg = big.bitselect((num - den) * den * s * r, t);
     let base = big.bitselect(splat(std::f32::consts::FRAC_PI_4), splat(0.0));
     let at = base + atan_reduced(arg);
     let th = swap.bitselect(splat(std::f32::consts::FRAC_PI_2) - at, at);
-    d.simd_lt(splat(0.0))
-        .bitselect(splat(std::f32::consts::PI) - th, th)
+    let theta = d
+        .simd_lt(splat(0.0))
+        .bitselect(splat(std::f32::consts::PI) - th, th);
+    theta * (den * sum * r)
 }
 
 /// sin, cos of 2π·v (see [`super::polygon::sincos_turns`]).
@@ -130,7 +135,7 @@ fn edge_vectors(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
     let cz = a[0] * b[1] - a[1] * b[0];
     let d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let s = (cx * cx + cy * cy + cz * cz).sqrt();
-    let k = atan2_nonneg(s, d) / s.max(splat(1e-30));
+    let k = theta_over_s(s, d);
     [cx * k, cy * k, cz * k]
 }
 
@@ -139,23 +144,72 @@ fn edge_vectors(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
 fn grid_points(u: f32, w: f32, h: f32, zi: f32x16, vi: f32x16) -> [f32x16; 3] {
     let z = ((splat(u) + zi) * splat(h)).mul_add(splat(2.0), splat(-1.0));
     let v = (splat(w) + vi) * splat(h);
-    let r = (splat(1.0) - z * z).max(splat(0.0)).sqrt();
+    let r = (splat(1.0) - z * z).fast_max(splat(0.0)).sqrt();
     let (s, c) = sincos_turns(v);
     [r * c, r * s, z]
 }
 
-/// Edge sums (2π·F, winding as built) of the 4 plain-quad children.
+// Lanes 0..9 of the vertex vector hold the corner grid, lane = 3·zi + vi.
+const GRID_Z: [f32; 16] = [
+    0., 0., 0., 1., 1., 1., 2., 2., 2., 0., 0., 0., 0., 0., 0., 0.,
+];
+const GRID_V: [f32; 16] = [
+    0., 1., 2., 0., 1., 2., 0., 1., 2., 0., 0., 0., 0., 0., 0., 0.,
+];
+
+const fn permutation(which: usize) -> [i32; 16] {
+    let mut p = [0i32; 16];
+    let mut l = 0;
+    while l < 16 {
+        p[l] = (3.0 * LANES[2 * which][l] + LANES[2 * which + 1][l]) as i32;
+        l += 1;
+    }
+    p
+}
+/// Grid vertex feeding each lane as edge start (a) and edge end (b).
+const PERM_A: [i32; 16] = permutation(0);
+const PERM_B: [i32; 16] = permutation(1);
+
+/// Gathers lanes of `v` by constant indices: one vpermps on AVX-512.
+#[inline(always)]
+fn permute(v: f32x16, idx: &[i32; 16]) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m512, __m512i, _mm512_permutexvar_ps};
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32, and
+        // [i32; 16] and __m512i both 64 bytes; avx512f is enabled at
+        // compile time (the cfg above).
+        unsafe {
+            let vi: __m512i = std::mem::transmute(*idx);
+            let vv: __m512 = std::mem::transmute(v);
+            std::mem::transmute(_mm512_permutexvar_ps(vi, vv))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        let a = v.to_array();
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
+    }
+}
+
+/// Edge sums (2π·F, winding as built) of the 4 plain-quad children: the 9
+/// corners are built and transformed once (lanes 0..9), then permuted into
+/// the 16 edge-start and edge-end lanes.
 pub fn children_edge_sums_x16(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
-    debug_assert_eq!(child_grid(cell).0[0], {
-        let h = 1.0 / (1u64 << (cell.depth + 1)) as f32;
-        ((2 * cell.ix) as f32 * h).mul_add(2.0, -1.0)
-    });
     let h = 1.0 / (1u64 << (cell.depth + 1)) as f32;
     let (u, w) = ((2 * cell.ix) as f32, (2 * cell.iy) as f32);
-    let pa = grid_points(u, w, h, f32x16::from(LANES[0]), f32x16::from(LANES[1]));
-    let pb = grid_points(u, w, h, f32x16::from(LANES[2]), f32x16::from(LANES[3]));
-    let ta = transform(&g.rows, pa[0], pa[1], pa[2]);
-    let tb = transform(&g.rows, pb[0], pb[1], pb[2]);
+    let p = grid_points(u, w, h, f32x16::from(GRID_Z), f32x16::from(GRID_V));
+    let t = transform(&g.rows, p[0], p[1], p[2]);
+    let ta = [
+        permute(t[0], &PERM_A),
+        permute(t[1], &PERM_A),
+        permute(t[2], &PERM_A),
+    ];
+    let tb = [
+        permute(t[0], &PERM_B),
+        permute(t[1], &PERM_B),
+        permute(t[2], &PERM_B),
+    ];
     // Lanes 4k..4k+3 hold every corner of child k as an edge start.
     let above = ta[2].simd_ge(splat(0.0)).to_bitmask();
     let below = ta[2].simd_le(splat(0.0)).to_bitmask();

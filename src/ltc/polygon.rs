@@ -135,16 +135,23 @@ pub fn atan_reduced(t: f32) -> f32 {
     t * p
 }
 
-/// atan2(s, d) for s ≥ 0, in f32, with the operations the wide kernel uses.
+/// θ/s with θ = atan2(s, d), for s ≥ 0, in f32, with exactly the operations
+/// of the wide kernel. One reciprocal serves the three quotients the
+/// range-reduced atan needs (t = num/den, (num − den)/(num + den) and θ/s).
 #[inline(always)]
-pub fn atan2_nonneg(s: f32, d: f32) -> f32 {
+pub fn theta_over_s(s: f32, d: f32) -> f32 {
+    // A degenerate (polar) edge has s = 0 and c = 0: keep k finite so that
+    // c·k is exactly 0.
+    let s = s.max(1e-30);
     let a = d.abs();
     let swap = s > a;
     let num = if swap { a } else { s };
     let den = if swap { s } else { a };
-    let t = num / den.max(1e-30);
+    let sum = num + den;
+    let r = 1.0 / (den * sum * s).max(1e-37);
+    let t = num * sum * s * r;
     let big = t > TAN_PI_8;
-    let arg = if big { (t - 1.0) / (t + 1.0) } else { t };
+    let arg = if big { (num - den) * den * s * r } else { t };
     let base = if big {
         std::f32::consts::FRAC_PI_4
     } else {
@@ -156,11 +163,17 @@ pub fn atan2_nonneg(s: f32, d: f32) -> f32 {
     } else {
         at
     };
-    if d < 0.0 {
+    let theta = if d < 0.0 {
         std::f32::consts::PI - th
     } else {
         th
-    }
+    };
+    theta * (den * sum * r)
+}
+
+/// atan2(s, d) for s ≥ 0 (a convenience for tests).
+pub fn atan2_nonneg(s: f32, d: f32) -> f32 {
+    theta_over_s(s, d) * s
 }
 
 /// θ_ab·(a×b)/|a×b| for unnormalised a, b; exactly antisymmetric in (a, b)
@@ -174,8 +187,7 @@ pub fn edge_vector(a: Vec3, b: Vec3) -> Vec3 {
     );
     let d = a.x * b.x + a.y * b.y + a.z * b.z;
     let s = (c.x * c.x + c.y * c.y + c.z * c.z).sqrt();
-    let k = atan2_nonneg(s, d) / s.max(1e-30);
-    c * k
+    c * theta_over_s(s, d)
 }
 
 /// sin and cos of 2π·v for v ∈ [0, 1], accurate to a few 1e-8 absolute:
