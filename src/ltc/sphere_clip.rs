@@ -13,9 +13,10 @@
 //! - in between, with x = cot σ, y = −x·z/sin ω:
 //!   π·len·K = len·(z·acos y − x·sin ω·√(1−y²)) + atan(sin ω·√(1−y²)/x).
 //!
-//! Only the middle band needs a table. There K/sin σ depends smoothly on
-//! (z/sin σ, sin σ), both in [−1, 1]×[0, 1], so we tabulate h = K/sin σ on
-//! that square and interpolate bilinearly. The band boundaries are exact
+//! Only the middle band needs a table. There h = K/sin σ depends smoothly on
+//! (z/sin σ, σ), in [−1, 1]×[0, π/2], so we tabulate h on that rectangle
+//! (σ rather than sin σ: h steepens like √(1 − sin σ) as the cap approaches
+//! a hemisphere) and interpolate bilinearly. The band boundaries are exact
 //! (h = 1 at z = sin σ, h = 0 at z = −sin σ), so the table never creates a
 //! jump. `tests/ltc_sphere_clip.rs` measures the error of the table.
 
@@ -61,8 +62,9 @@ fn table() -> &'static [f32] {
     TABLE.get_or_init(|| {
         let mut t = Vec::with_capacity(NX * NS);
         for js in 0..NS {
-            // The s → 0 limit is approached closely enough at s = 1e-4.
-            let s = (js as f64 / (NS - 1) as f64).max(1e-4);
+            // The σ → 0 limit is approached closely enough at σ = 1e-4.
+            let sigma = (js as f64 / (NS - 1) as f64 * std::f64::consts::FRAC_PI_2).max(1e-4);
+            let s = sigma.sin();
             for ix in 0..NX {
                 let x = -1.0 + 2.0 * ix as f64 / (NX - 1) as f64;
                 let h = if ix == NX - 1 {
@@ -101,7 +103,7 @@ fn clipped_integral_band(fz: f32, q: f32) -> f32 {
     }
     let x = (fz / (len * s)).clamp(-1.0, 1.0);
     let fx = (x + 1.0) * 0.5 * (NX - 1) as f32;
-    let fs = s * (NS - 1) as f32;
+    let fs = s.min(1.0).asin() * std::f32::consts::FRAC_2_PI * (NS - 1) as f32;
     let ix = (fx as usize).min(NX - 2);
     let js = (fs as usize).min(NS - 2);
     let (wx, ws) = (fx - ix as f32, fs - js as f32);
