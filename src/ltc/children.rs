@@ -295,7 +295,15 @@ impl GlossyLtc {
     pub fn children_deep(&self, cell: Cell) -> [f32; 4] {
         let omega = cell.child(0).solid_angle() as f32;
         let (z, v) = child_centres(cell);
-        std::array::from_fn(|k| self.density(cell_point_f32(z[k & 1], v[k >> 1])) * omega)
+        // Two heights and two azimuths serve the four centres.
+        let r = z.map(|z| (1.0 - z * z).max(0.0).sqrt());
+        let sc = v.map(sincos_turns);
+        let d = |k: usize| {
+            let (s, c) = sc[k >> 1];
+            let rz = r[k & 1];
+            self.density(Vec3::new(rz * c, rz * s, z[k & 1])) * omega
+        };
+        [d(0), d(1), d(2), d(3)]
     }
 }
 

@@ -198,12 +198,27 @@ pub fn sincos_turns(v: f32) -> (f32, f32) {
     let qi = q.floor();
     let x = (q - qi) * std::f32::consts::FRAC_PI_2;
     let (s, c) = sincos_quarter(x);
-    match (qi as i32) & 3 {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+    let quadrant = qi - (qi * 0.25).floor() * 4.0;
+    let (q1, q2, q3) = (quadrant == 1.0, quadrant == 2.0, quadrant == 3.0);
+    let sin = if q3 {
+        -c
+    } else if q2 {
+        -s
+    } else if q1 {
+        c
+    } else {
+        s
+    };
+    let cos = if q3 {
+        s
+    } else if q2 {
+        -c
+    } else if q1 {
+        -s
+    } else {
+        c
+    };
+    (sin, cos)
 }
 
 /// sin x and cos x for x ∈ [0, π/2] by Taylor series (to x^13 and x^14).
@@ -277,4 +292,62 @@ pub fn polygon_edge_sum(verts: &[Vec3]) -> Vec3 {
         f += edge_vector(verts[i], verts[(i + 1) % n]);
     }
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sincos_turns_is_accurate_over_all_quadrants() {
+        for i in 0..=4096 {
+            let v = i as f32 / 4096.0;
+            let (s, c) = sincos_turns(v);
+            let phi = 2.0 * std::f64::consts::PI * v as f64;
+            assert!((s as f64 - phi.sin()).abs() < 2e-7, "{v}");
+            assert!((c as f64 - phi.cos()).abs() < 2e-7, "{v}");
+        }
+    }
+
+    #[test]
+    fn edge_angle_matches_atan2_and_degenerates_to_zero() {
+        for &(s, d) in &[
+            (0.5f32, 0.8f32),
+            (1e-4, 1.0),
+            (0.9, -0.3),
+            (1.0, 0.0),
+            (1e-6, -1.0),
+            (3.0, 4.0),
+        ] {
+            let exact = (s as f64).atan2(d as f64);
+            let got = atan2_nonneg(s, d) as f64;
+            assert!(
+                (got - exact).abs() <= 3e-7 * exact.max(1e-30) + 1e-12,
+                "{s} {d}: {got} {exact}"
+            );
+        }
+        assert_eq!(edge_vector(Vec3::Z, Vec3::Z), Vec3::ZERO);
+        assert_eq!(edge_vector(Vec3::Z, -Vec3::Z), Vec3::ZERO);
+        let a = Vec3::new(0.3, 0.1, 0.9);
+        let b = Vec3::new(-0.2, 0.4, 0.8);
+        assert_eq!(edge_vector(a, b), -edge_vector(b, a));
+    }
+
+    #[test]
+    fn level_one_polygon_splits_the_antipodal_equator() {
+        let mut p = Vec::new();
+        cell_polygon_f64(
+            Cell {
+                depth: 1,
+                ix: 1,
+                iy: 0,
+            },
+            &mut p,
+        );
+        // (1,0,0), (0,1,0), (−1,0,0) on the equator, then the pole twice.
+        assert_eq!(p.len(), 5);
+        assert!((p[1] - DVec3::Y).length() < 1e-12);
+        let up = clipped_cosine_integral_f64(&p, &mut Vec::new());
+        assert!((up - 0.5).abs() < 1e-12, "{up}");
+    }
 }

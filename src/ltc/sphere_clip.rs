@@ -85,10 +85,14 @@ fn table() -> &'static [f32] {
 /// vector form factor of squared length `q` = F·F and normal component `fz`.
 #[inline]
 pub fn clipped_integral(fz: f32, q: f32) -> f32 {
-    // Wholly above or below iff |F_z| ≥ sin σ·len = q^(3/4), i.e. F_z⁴ ≥ q³;
-    // this test needs no root and is exact in the two easy cases.
-    let fz2 = fz * fz;
-    if fz2 * fz2 >= q * q * q {
+    // Wholly above or below iff |F_z| ≥ sin σ·len = q^(3/4), i.e.
+    // (F_z²/q)² ≥ q. Written with the ratio, not as F_z⁴ ≥ q³: for deep
+    // cells q³ would be denormal, and denormals cost ~100 cycles each.
+    if !(q > 0.0) {
+        return 0.0;
+    }
+    let r = fz * fz / q;
+    if r * r >= q {
         return fz.max(0.0);
     }
     clipped_integral_band(fz, q)
