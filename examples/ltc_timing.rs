@@ -42,6 +42,16 @@ fn main() {
     let d = ShadingLtc::new(&lobes(1.0, 0.0), &frame, wo, &table, &opts);
     let g = s.glossy[0];
     let peak = (g.a64.inverse() * glam::DVec3::Z).normalize().as_vec3();
+    let setup = min_ns(|| {
+        black_box(ShadingLtc::new(
+            black_box(&lobes(0.3, 1.0)),
+            &frame,
+            wo,
+            &table,
+            &opts,
+        ));
+    });
+    println!("ShadingLtc::new (diffuse + GGX): {setup:.1} ns");
     println!("level | ref f64 | scalar | x16 | x16/scalar | diffuse | api simd (ns)");
     for level in [2u32, 4, 6, 8, 10, 12, 16, 20] {
         let p = dir_to_square(peak);

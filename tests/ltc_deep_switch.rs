@@ -14,8 +14,8 @@ use ltcguide::ltc::children::DEFAULT_DEEP_CELL_SIZE;
 fn deep_switch_threshold() {
     let frame = tilted_frame();
     // Buckets of log2 δ' from −16 to 0.
-    let mut poly = vec![0.0f64; 17];
-    let mut mid = vec![0.0f64; 17];
+    let mut poly = [0.0f64; 17];
+    let mut mid = [0.0f64; 17];
     let mut used = 0.0f64;
     for &alpha in &[1e-3f32, 0.01, 0.1, 0.5] {
         for &theta in &[0.0, 45.0, 80.0] {

@@ -26,8 +26,8 @@
 use super::children_x16;
 use super::form_factor;
 use super::polygon::{
-    cell_integral_reference, cell_point_f32, cell_polygon_f32, edge_vector, is_plain_quad_depth,
-    polygon_edge_sum, sincos_turns, transform_rows,
+    cell_integral_reference, cell_polygon_f32, edge_vector, is_plain_quad_depth, polygon_edge_sum,
+    sincos_turns, transform_rows,
 };
 use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
@@ -240,7 +240,7 @@ impl GlossyLtc {
             match sides[k] {
                 HorizonSide::Above => f.z.max(0.0),
                 HorizonSide::Below => 0.0,
-                HorizonSide::Crossing if cell.depth + 1 <= EXACT_CROSSING_DEPTH => {
+                HorizonSide::Crossing if cell.depth < EXACT_CROSSING_DEPTH => {
                     cell_integral_reference(cell.child(k), &self.a64, self.orientation as f64)
                         as f32
                 }
@@ -500,7 +500,7 @@ impl ShadingLtc {
         if cell.depth < EXACT_CLIP_DEPTH {
             return self.diffuse_reference(cell);
         }
-        if cell.depth + 1 <= EXACT_CROSSING_DEPTH {
+        if cell.depth < EXACT_CROSSING_DEPTH {
             // Large cells: classify by the polygon, clip straddlers exactly.
             let mut poly = Vec::with_capacity(40);
             let o = self.diffuse_map.determinant().signum();

@@ -375,7 +375,7 @@ pub fn fit_table(opts: &FitOptions) -> Result<(LtcTable, Vec<f64>), String> {
                     wo_of_cos(cos_theta),
                     fit.albedo,
                     opts.eval_samples,
-                    0.3183,
+                    0.29,
                 );
                 row.push((fit, err));
             }

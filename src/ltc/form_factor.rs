@@ -38,7 +38,7 @@ pub fn cell_form_factor(cell: Cell) -> DVec3 {
 
 fn level_offset(depth: u32) -> usize {
     // Σ_{d < depth} 4^d
-    (((1usize << (2 * depth)) - 1) / 3) as usize
+    ((1usize << (2 * depth)) - 1) / 3
 }
 
 fn table() -> &'static [Vec3] {
