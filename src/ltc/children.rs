@@ -26,8 +26,8 @@
 use super::children_x16;
 use super::form_factor;
 use super::polygon::{
-    cell_integral_reference, cell_polygon_f32, edge_vector, is_plain_quad_depth, polygon_edge_sum,
-    sincos_turns, transform_rows,
+    cell_integral_reference, cell_polygon_f32, clipped_edge_sum_z, edge_vector,
+    is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
 };
 use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
@@ -210,29 +210,37 @@ impl GlossyLtc {
             self.children_edge_sums_grid(cell)
         } else {
             let mut poly = Vec::with_capacity(80);
+            let mut scratch = Vec::with_capacity(96);
             let mut sides = [HorizonSide::Above; 4];
+            let mut exact = [0.0f32; 4];
             let f = std::array::from_fn(|k| {
                 cell_polygon_f32(cell.child(k), &mut poly);
                 for v in poly.iter_mut() {
                     *v = transform_rows(&self.rows, *v);
                 }
                 sides[k] = HorizonSide::of_vertices(&poly);
+                if sides[k] == HorizonSide::Crossing {
+                    exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+                }
                 polygon_edge_sum(&poly)
             });
-            (f, sides)
+            return self.finish_children(cell, f, sides, Some(exact));
         };
-        self.finish_children(cell, f, sides)
+        self.finish_children(cell, f, sides, None)
     }
 
     /// Integrals from the 4 children's edge sums (2π·F, winding as built):
     /// exact F_z above the horizon, 0 below, and for straddling children
-    /// exact clipping at coarse depths, the sphere approximation deeper.
+    /// exact clipping at coarse depths (`exact`: 2π·F_z of the clipped
+    /// polygons when the caller already clipped them), the sphere
+    /// approximation deeper.
     #[inline]
     pub fn finish_children(
         &self,
         cell: Cell,
         sums: [Vec3; 4],
         sides: [HorizonSide; 4],
+        exact: Option<[f32; 4]>,
     ) -> [f32; 4] {
         let scale = self.orientation * (0.5 / PI);
         std::array::from_fn(|k| {
@@ -240,10 +248,13 @@ impl GlossyLtc {
             match sides[k] {
                 HorizonSide::Above => f.z.max(0.0),
                 HorizonSide::Below => 0.0,
-                HorizonSide::Crossing if cell.depth < EXACT_CROSSING_DEPTH => {
-                    cell_integral_reference(cell.child(k), &self.a64, self.orientation as f64)
-                        as f32
-                }
+                HorizonSide::Crossing if cell.depth < EXACT_CROSSING_DEPTH => match exact {
+                    Some(e) => (e[k] * scale).max(0.0),
+                    None => {
+                        cell_integral_reference(cell.child(k), &self.a64, self.orientation as f64)
+                            as f32
+                    }
+                },
                 HorizonSide::Crossing => clipped_integral(f.z, f.length_squared()),
             }
         })
@@ -346,6 +357,8 @@ pub struct ShadingLtc {
     pub normal: Vec3,
     /// World → cosine-space map of the diffuse lobe (f64 reference).
     diffuse_map: DMat3,
+    diffuse_rows: [[f32; 3]; 3],
+    diffuse_orientation: f32,
     pub glossy: [GlossyLtc; 1],
     pub glossy_count: usize,
     pub cos_theta_o: f32,
@@ -427,10 +440,13 @@ impl ShadingLtc {
             glossy_count += 1;
         }
         let total = diffuse_weight + glossy[..glossy_count].iter().map(|g| g.weight).sum::<f32>();
+        let diffuse_lobe = GlossyLtc::from_map(to_local, 1.0, opts.deep_cell_size);
         ShadingLtc {
             diffuse_weight,
             normal,
             diffuse_map: to_local,
+            diffuse_rows: diffuse_lobe.rows,
+            diffuse_orientation: diffuse_lobe.orientation,
             glossy,
             glossy_count,
             cos_theta_o,
@@ -503,18 +519,19 @@ impl ShadingLtc {
         if cell.depth < EXACT_CROSSING_DEPTH {
             // Large cells: classify by the polygon, clip straddlers exactly.
             let mut poly = Vec::with_capacity(40);
-            let o = self.diffuse_map.determinant().signum();
+            let mut scratch = Vec::with_capacity(48);
+            let scale = self.diffuse_orientation * (0.5 / PI);
             return std::array::from_fn(|k| {
                 let child = cell.child(k);
                 cell_polygon_f32(child, &mut poly);
                 for v in poly.iter_mut() {
-                    *v = Vec3::new(0.0, 0.0, v.dot(self.normal));
+                    *v = transform_rows(&self.diffuse_rows, *v);
                 }
                 match HorizonSide::of_vertices(&poly) {
                     HorizonSide::Above => form_factor::form_factor(child).dot(self.normal).max(0.0),
                     HorizonSide::Below => 0.0,
                     HorizonSide::Crossing => {
-                        cell_integral_reference(child, &self.diffuse_map, o) as f32
+                        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
                     }
                 }
             });

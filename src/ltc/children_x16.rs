@@ -10,7 +10,9 @@
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide};
-use super::polygon::{TAN_PI_8, cell_polygon_f32, is_plain_quad_depth, transform_rows};
+use super::polygon::{
+    TAN_PI_8, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth, transform_rows,
+};
 use crate::directional::Cell;
 use glam::Vec3;
 use wide::f32x16;
@@ -230,16 +232,24 @@ pub fn children_edge_sums_x16(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [Horizon
 
 /// Edge sums of children with subdivided parallels, 16 edges per batch,
 /// accumulated in polygon order like the scalar kernel.
-pub fn children_edge_sums_batched(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
+pub fn children_edge_sums_batched(
+    g: &GlossyLtc,
+    cell: Cell,
+) -> ([Vec3; 4], [HorizonSide; 4], [f32; 4]) {
     let mut poly = Vec::with_capacity(80);
     let mut sums = [Vec3::ZERO; 4];
     let mut sides = [HorizonSide::Above; 4];
+    let mut exact = [0.0f32; 4];
+    let mut scratch = Vec::with_capacity(96);
     for (k, sum) in sums.iter_mut().enumerate() {
         cell_polygon_f32(cell.child(k), &mut poly);
         for v in poly.iter_mut() {
             *v = transform_rows(&g.rows, *v);
         }
         sides[k] = HorizonSide::of_vertices(&poly);
+        if sides[k] == HorizonSide::Crossing {
+            exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+        }
         let n = poly.len();
         let mut start = 0;
         while start < n {
@@ -261,7 +271,7 @@ pub fn children_edge_sums_batched(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [Hor
             start += count;
         }
     }
-    (sums, sides)
+    (sums, sides, exact)
 }
 
 /// The 4 child integrals of a glossy lobe, 16 lanes wide.
@@ -273,10 +283,11 @@ pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     if depth >= deep_depth {
         return g.children_deep(cell);
     }
-    let (sums, sides) = if is_plain_quad_depth(depth) {
-        children_edge_sums_x16(g, cell)
+    if is_plain_quad_depth(depth) {
+        let (sums, sides) = children_edge_sums_x16(g, cell);
+        g.finish_children(cell, sums, sides, None)
     } else {
-        children_edge_sums_batched(g, cell)
-    };
-    g.finish_children(cell, sums, sides)
+        let (sums, sides, exact) = children_edge_sums_batched(g, cell);
+        g.finish_children(cell, sums, sides, Some(exact))
+    }
 }

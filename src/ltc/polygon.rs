@@ -270,17 +270,57 @@ pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
     let scale = 1.0 / (1u64 << cell.depth) as f32;
     let v0 = cell.iy as f32 * scale;
     let (z0, z1) = (b.z0 as f32, b.z1 as f32);
+    let (r0, r1) = (
+        (1.0 - z0 * z0).max(0.0).sqrt(),
+        (1.0 - z1 * z1).max(0.0).sqrt(),
+    );
     let n0 = parallel_segments(cell.depth, b.z0);
-    for k in 0..=n0 {
-        out.push(cell_point_f32(z0, v0 + scale * k as f32 / n0 as f32));
-    }
     let n1 = parallel_segments(cell.depth, b.z1);
-    for k in 0..=n1 {
-        out.push(cell_point_f32(
-            z1,
-            v0 + scale - scale * k as f32 / n1 as f32,
-        ));
+    // Both parallels usually share their azimuths: one sincos serves two vertices.
+    let mut sc = [(0.0f32, 0.0f32); 65];
+    let n = n0.max(n1).min(64);
+    for (k, e) in sc.iter_mut().enumerate().take(n + 1) {
+        *e = sincos_turns(v0 + scale * k as f32 / n as f32);
     }
+    let at = |k: usize, m: usize| {
+        if m == n {
+            sc[k]
+        } else {
+            sincos_turns(v0 + scale * k as f32 / m as f32)
+        }
+    };
+    for k in 0..=n0 {
+        let (s, c) = at(k, n0);
+        out.push(Vec3::new(r0 * c, r0 * s, z0));
+    }
+    for k in (0..=n1).rev() {
+        let (s, c) = at(k, n1);
+        out.push(Vec3::new(r1 * c, r1 * s, z1));
+    }
+}
+
+/// 2π·F_z of the polygon clipped exactly at z = 0, in f32 (for the large
+/// polygons of coarse levels, where f32 has precision to spare).
+pub fn clipped_edge_sum_z(verts: &[Vec3], scratch: &mut Vec<Vec3>) -> f32 {
+    scratch.clear();
+    let n = verts.len();
+    for i in 0..n {
+        let a = verts[i];
+        let b = verts[(i + 1) % n];
+        if a.z >= 0.0 {
+            scratch.push(a);
+        }
+        if (a.z >= 0.0) != (b.z >= 0.0) {
+            let t = a.z / (a.z - b.z);
+            let mut p = a + (b - a) * t;
+            p.z = 0.0;
+            scratch.push(p);
+        }
+    }
+    if scratch.len() < 3 {
+        return 0.0;
+    }
+    polygon_edge_sum(scratch).z
 }
 
 /// Unclipped F (times 2π) of a polygon whose vertices are already in cosine
