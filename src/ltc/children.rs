@@ -63,9 +63,9 @@ pub struct LtcOptions {
     pub deep_cell_size: f32,
 }
 
-/// Children up to this depth are clipped exactly (f64) by every kernel: the
-/// level-1 cells are quarter spheres, far too large for the sphere
-/// approximation, and their 5-vertex polygons are cheap.
+/// Children up to this depth are clipped exactly (in f32 by the fast
+/// kernels): the level-1 cells are quarter spheres, far too large for the
+/// sphere approximation, and their 5-vertex polygons are cheap.
 pub const EXACT_CLIP_DEPTH: u32 = 1;
 
 /// Cell size in cosine space below which f32 edge sums are less accurate
@@ -197,11 +197,16 @@ impl GlossyLtc {
         std::array::from_fn(|k| cell_integral_reference(cell.child(k), &self.a64, o) as f32)
     }
 
+    /// Exactly clipped f32 integrals of the 4 children (coarsest levels).
+    pub fn children_exact_f32(&self, cell: Cell) -> [f32; 4] {
+        exact_children_f32(&self.rows, self.orientation, cell)
+    }
+
     /// Scalar f32 integrals of the 4 children.
     pub fn children_scalar(&self, cell: Cell, deep_depth: u32) -> [f32; 4] {
         let depth = cell.depth + 1;
         if depth <= EXACT_CLIP_DEPTH {
-            return self.children_reference(cell);
+            return self.children_exact_f32(cell);
         }
         if depth >= deep_depth {
             return self.children_deep(cell);
@@ -316,6 +321,20 @@ impl GlossyLtc {
         };
         [d(0), d(1), d(2), d(3)]
     }
+}
+
+/// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
+pub fn exact_children_f32(rows: &[[f32; 3]; 3], orientation: f32, cell: Cell) -> [f32; 4] {
+    let mut poly = Vec::with_capacity(80);
+    let mut scratch = Vec::with_capacity(96);
+    let scale = orientation * (0.5 / PI);
+    std::array::from_fn(|k| {
+        cell_polygon_f32(cell.child(k), &mut poly);
+        for v in poly.iter_mut() {
+            *v = transform_rows(rows, *v);
+        }
+        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
+    })
 }
 
 /// Heights and azimuths (turns) of the 3×3 corner grid of a node's children;
@@ -514,7 +533,7 @@ impl ShadingLtc {
     /// above the horizon, sphere-clipped across it.
     pub fn diffuse_form_factors(&self, cell: Cell) -> [f32; 4] {
         if cell.depth < EXACT_CLIP_DEPTH {
-            return self.diffuse_reference(cell);
+            return exact_children_f32(&self.diffuse_rows, self.diffuse_orientation, cell);
         }
         if cell.depth < EXACT_CROSSING_DEPTH {
             // Large cells: classify by the polygon, clip straddlers exactly.

@@ -278,7 +278,7 @@ pub fn children_edge_sums_batched(
 pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     let depth = cell.depth + 1;
     if depth <= EXACT_CLIP_DEPTH {
-        return g.children_reference(cell);
+        return g.children_exact_f32(cell);
     }
     if depth >= deep_depth {
         return g.children_deep(cell);
