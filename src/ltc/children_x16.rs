@@ -9,7 +9,7 @@
 //! Coarse nodes whose children have subdivided parallels batch their edges
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
-use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide};
+use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
 use super::polygon::{
     TAN_PI_8, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth, transform_rows,
 };
@@ -274,6 +274,23 @@ pub fn children_edge_sums_batched(
     (sums, sides, exact)
 }
 
+/// D(centre)·Ω for the 4 children in lanes 0..4, with the scalar
+/// [`GlossyLtc::children_deep`]'s operations.
+pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
+    let omega = cell.child(0).solid_angle() as f32;
+    let (z, v) = child_centres(cell);
+    let zl = f32x16::from(std::array::from_fn::<f32, 16, _>(|l| z[l & 1]));
+    let vl = f32x16::from(std::array::from_fn::<f32, 16, _>(|l| v[(l >> 1) & 1]));
+    let r = (splat(1.0) - zl * zl).fast_max(splat(0.0)).sqrt();
+    let (s, c) = sincos_turns(vl);
+    let p = transform(&g.rows, r * c, r * s, zl);
+    let l2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    let d = p[2].fast_max(splat(0.0)) * splat(g.det_abs) / (splat(std::f32::consts::PI) * l2 * l2);
+    let ok = l2.simd_gt(splat(0.0));
+    let out = (ok.bitselect(d, splat(0.0)) * splat(omega)).to_array();
+    [out[0], out[1], out[2], out[3]]
+}
+
 /// The 4 child integrals of a glossy lobe, 16 lanes wide.
 pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     let depth = cell.depth + 1;
@@ -281,7 +298,7 @@ pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
         return g.children_exact_f32(cell);
     }
     if depth >= deep_depth {
-        return g.children_deep(cell);
+        return children_deep_x16(g, cell);
     }
     if is_plain_quad_depth(depth) {
         let (sums, sides) = children_edge_sums_x16(g, cell);
