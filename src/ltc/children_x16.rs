@@ -11,7 +11,7 @@
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
 use super::polygon::{
-    TAN_PI_8, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth, transform_rows,
+    ATAN_COEFFS, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth, transform_rows,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -52,18 +52,14 @@ fn splat(v: f32) -> f32x16 {
     f32x16::splat(v)
 }
 
-/// atan on the reduced range (see [`super::polygon::atan_reduced`]).
+/// atan on [0, 1] (see [`super::polygon::atan_unit`]).
 #[inline(always)]
-fn atan_reduced(t: f32x16) -> f32x16 {
+fn atan_unit(t: f32x16) -> f32x16 {
     let u = t * t;
-    let mut p = splat(-1.0 / 15.0);
-    p = p.mul_add(u, splat(1.0 / 13.0));
-    p = p.mul_add(u, splat(-1.0 / 11.0));
-    p = p.mul_add(u, splat(1.0 / 9.0));
-    p = p.mul_add(u, splat(-1.0 / 7.0));
-    p = p.mul_add(u, splat(1.0 / 5.0));
-    p = p.mul_add(u, splat(-1.0 / 3.0));
-    p = p.mul_add(u, splat(1.0));
+    let mut p = splat(ATAN_COEFFS[9]);
+    for k in (0..9).rev() {
+        p = p.mul_add(u, splat(ATAN_COEFFS[k]));
+    }
     t * p
 }
 
@@ -75,18 +71,14 @@ fn theta_over_s(s: f32x16, d: f32x16) -> f32x16 {
     let swap = s.simd_gt(a);
     let num = swap.bitselect(a, s);
     let den = swap.bitselect(s, a);
-    let sum = num + den;
-    let r = splat(1.0) / (den * sum * s).fast_max(splat(1e-37));
-    let t = num * sum * s * r;
-    let big = t.simd_gt(splat(TAN_PI_8));
-    let arg = big.bitselect((num - den) * den * s * r, t);
-    let base = big.bitselect(splat(std::f32::consts::FRAC_PI_4), splat(0.0));
-    let at = base + atan_reduced(arg);
+    let r = splat(1.0) / (den * s).fast_max(splat(1e-37));
+    let t = num * s * r;
+    let at = atan_unit(t);
     let th = swap.bitselect(splat(std::f32::consts::FRAC_PI_2) - at, at);
     let theta = d
         .simd_lt(splat(0.0))
         .bitselect(splat(std::f32::consts::PI) - th, th);
-    theta * (den * sum * r)
+    theta * (den * r)
 }
 
 /// sin, cos of 2π·v (see [`super::polygon::sincos_turns`]).

@@ -116,28 +116,37 @@ pub fn cell_integral_reference(cell: Cell, a: &DMat3, orientation: f64) -> f64 {
     (orientation * clipped_cosine_integral_f64(&poly, &mut scratch)).max(0.0)
 }
 
-/// tan(π/8): above it, atan(t) = π/4 + atan((t−1)/(t+1)).
-pub const TAN_PI_8: f32 = 0.414_213_57;
+/// Coefficients of atan(t)/t ≈ Σ c_k·(t²)^k on t ∈ [0, 1]: our own
+/// Chebyshev interpolant in u = t² (degree 9; atan(√u)/√u is analytic with
+/// its nearest singularity at u = −1, so the error falls ~5.8× per degree).
+/// Measured in f32 Horner: relative error < 9e-8 over [0, 1].
+pub const ATAN_COEFFS: [f32; 10] = [
+    9.999999972e-01,
+    -3.333327629e-01,
+    1.999807528e-01,
+    -1.426001608e-01,
+    1.093234149e-01,
+    -8.349724925e-02,
+    5.708955519e-02,
+    -3.035186404e-02,
+    1.048764885e-02,
+    -1.701169973e-03,
+];
 
-/// atan on [−tan(π/8), tan(π/8)] by its Taylor series to t^15
-/// (relative error < 5e-8 on that range).
+/// atan(t) for t ∈ [0, 1].
 #[inline(always)]
-pub fn atan_reduced(t: f32) -> f32 {
+pub fn atan_unit(t: f32) -> f32 {
     let u = t * t;
-    let mut p = -1.0 / 15.0f32;
-    p = p.mul_add(u, 1.0 / 13.0);
-    p = p.mul_add(u, -1.0 / 11.0);
-    p = p.mul_add(u, 1.0 / 9.0);
-    p = p.mul_add(u, -1.0 / 7.0);
-    p = p.mul_add(u, 1.0 / 5.0);
-    p = p.mul_add(u, -1.0 / 3.0);
-    p = p.mul_add(u, 1.0);
+    let mut p = ATAN_COEFFS[9];
+    for k in (0..9).rev() {
+        p = p.mul_add(u, ATAN_COEFFS[k]);
+    }
     t * p
 }
 
 /// θ/s with θ = atan2(s, d), for s ≥ 0, in f32, with exactly the operations
-/// of the wide kernel. One reciprocal serves the three quotients the
-/// range-reduced atan needs (t = num/den, (num − den)/(num + den) and θ/s).
+/// of the wide kernel. One reciprocal r = 1/(den·s) serves both quotients:
+/// t = num/den = num·s·r and 1/s = den·r.
 #[inline(always)]
 pub fn theta_over_s(s: f32, d: f32) -> f32 {
     // A degenerate (polar) edge has s = 0 and c = 0: keep k finite so that
@@ -147,17 +156,9 @@ pub fn theta_over_s(s: f32, d: f32) -> f32 {
     let swap = s > a;
     let num = if swap { a } else { s };
     let den = if swap { s } else { a };
-    let sum = num + den;
-    let r = 1.0 / (den * sum * s).max(1e-37);
-    let t = num * sum * s * r;
-    let big = t > TAN_PI_8;
-    let arg = if big { (num - den) * den * s * r } else { t };
-    let base = if big {
-        std::f32::consts::FRAC_PI_4
-    } else {
-        0.0
-    };
-    let at = base + atan_reduced(arg);
+    let r = 1.0 / (den * s).max(1e-37);
+    let t = num * s * r;
+    let at = atan_unit(t);
     let th = if swap {
         std::f32::consts::FRAC_PI_2 - at
     } else {
@@ -168,7 +169,7 @@ pub fn theta_over_s(s: f32, d: f32) -> f32 {
     } else {
         th
     };
-    theta * (den * sum * r)
+    theta * (den * r)
 }
 
 /// atan2(s, d) for s ≥ 0 (a convenience for tests).
