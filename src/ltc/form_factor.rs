@@ -59,9 +59,12 @@ fn table() -> &'static [Vec3] {
     })
 }
 
-/// Forces the one-time precomputation (otherwise done on first use).
+/// Forces the one-time precomputations (form factors and coarse cell
+/// polygons; otherwise done on first use).
 pub fn precompute() {
     let _ = table();
+    let mut p = Vec::new();
+    super::polygon::cell_polygon_f32(Cell::ROOT, &mut p);
 }
 
 /// F of a cell at any depth: tabulated, else the closed form in f64.

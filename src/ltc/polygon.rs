@@ -264,8 +264,8 @@ pub fn transform_rows(a: &[[f32; 3]; 3], v: Vec3) -> Vec3 {
     )
 }
 
-/// The f32 chord polygon of a cell (any depth), vertices in world space.
-pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
+/// Builds the f32 chord polygon of a cell.
+pub fn build_cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
     out.clear();
     let b = cell.bounds();
     let scale = 1.0 / (1u64 << cell.depth) as f32;
@@ -297,6 +297,52 @@ pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
     for k in (0..=n1).rev() {
         let (s, c) = at(k, n1);
         out.push(Vec3::new(r1 * c, r1 * s, z1));
+    }
+}
+
+/// Deepest level whose chord polygons are cached (every subdivided polygon
+/// lives at depth ≤ 5, since chords span at most 1/64 of a turn).
+pub const CACHED_POLYGON_DEPTH: u32 = 5;
+
+struct PolygonCache {
+    /// Start of each cell's vertices; cells in level order, then iy·2^d + ix.
+    offsets: Vec<u32>,
+    verts: Vec<Vec3>,
+}
+
+fn polygon_cache() -> &'static PolygonCache {
+    static CACHE: std::sync::OnceLock<PolygonCache> = std::sync::OnceLock::new();
+    CACHE.get_or_init(|| {
+        let mut offsets = vec![0u32];
+        let mut verts = Vec::new();
+        let mut poly = Vec::new();
+        for depth in 0..=CACHED_POLYGON_DEPTH {
+            let n = 1u32 << depth;
+            for iy in 0..n {
+                for ix in 0..n {
+                    build_cell_polygon_f32(Cell { depth, ix, iy }, &mut poly);
+                    verts.extend_from_slice(&poly);
+                    offsets.push(verts.len() as u32);
+                }
+            }
+        }
+        PolygonCache { offsets, verts }
+    })
+}
+
+/// The f32 chord polygon of a cell (any depth), vertices in world space;
+/// coarse levels come from a table built once, since their many chords
+/// would otherwise cost a sincos each on every call.
+pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
+    if cell.depth <= CACHED_POLYGON_DEPTH {
+        let c = polygon_cache();
+        let n = 1usize << cell.depth;
+        let index =
+            ((1usize << (2 * cell.depth)) - 1) / 3 + cell.iy as usize * n + cell.ix as usize;
+        out.clear();
+        out.extend_from_slice(&c.verts[c.offsets[index] as usize..c.offsets[index + 1] as usize]);
+    } else {
+        build_cell_polygon_f32(cell, out);
     }
 }
 
