@@ -10,9 +10,7 @@
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
-use super::polygon::{
-    ATAN_COEFFS, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth, transform_rows,
-};
+use super::polygon::{ATAN_COEFFS, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth};
 use crate::directional::Cell;
 use glam::Vec3;
 use wide::f32x16;
@@ -222,45 +220,83 @@ pub fn children_edge_sums_x16(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [Horizon
     (sums, sides)
 }
 
-/// Edge sums of children with subdivided parallels, 16 edges per batch,
-/// accumulated in polygon order like the scalar kernel.
+/// Room for the closed polygons of 4 children at level 2 (4 × 35 points)
+/// plus one batch of padding.
+const MAX_POINTS: usize = 4 * 35 + 20;
+
+/// Edge sums of children with subdivided parallels. The 4 closed polygons
+/// are laid out one after the other in structure-of-arrays form, mapped
+/// through A 16 points at a time, and their edges (P[j], P[j+1]) taken 16 at
+/// a time with two shifted loads; each child accumulates its own lanes in
+/// polygon order, like the scalar kernel.
 pub fn children_edge_sums_batched(
     g: &GlossyLtc,
     cell: Cell,
 ) -> ([Vec3; 4], [HorizonSide; 4], [f32; 4]) {
-    let mut poly = Vec::with_capacity(80);
+    let mut poly = Vec::with_capacity(40);
+    let mut p = [[0.0f32; MAX_POINTS]; 3];
+    let mut start = [0usize; 5];
+    let mut len = 0;
+    for (k, s) in start.iter_mut().take(4).enumerate() {
+        cell_polygon_f32(cell.child(k), &mut poly);
+        *s = len;
+        for v in poly.iter().chain(std::iter::once(&poly[0])) {
+            if len < MAX_POINTS - 17 {
+                p[0][len] = v.x;
+                p[1][len] = v.y;
+                p[2][len] = v.z;
+                len += 1;
+            }
+        }
+    }
+    start[4] = len;
+    // Map every point into cosine space, 16 at a time.
+    let mut t = [[0.0f32; MAX_POINTS]; 3];
+    let load = |a: &[f32; MAX_POINTS], i: usize| {
+        f32x16::from(<[f32; 16]>::try_from(&a[i..i + 16]).unwrap())
+    };
+    let mut i = 0;
+    while i < len {
+        let q = transform(&g.rows, load(&p[0], i), load(&p[1], i), load(&p[2], i));
+        for c in 0..3 {
+            t[c][i..i + 16].copy_from_slice(&q[c].to_array());
+        }
+        i += 16;
+    }
     let mut sums = [Vec3::ZERO; 4];
+    let mut j = 0;
+    while j + 1 < len {
+        let a = [load(&t[0], j), load(&t[1], j), load(&t[2], j)];
+        let b = [load(&t[0], j + 1), load(&t[1], j + 1), load(&t[2], j + 1)];
+        let e = edge_vectors(a, b);
+        let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
+        for (k, sum) in sums.iter_mut().enumerate() {
+            // Edges of child k start at points start[k]..start[k+1]−1.
+            let lo = start[k].max(j);
+            let hi = (start[k + 1] - 1).min(j + 16);
+            for l in lo..hi {
+                *sum += Vec3::new(x[l - j], y[l - j], z[l - j]);
+            }
+        }
+        j += 16;
+    }
     let mut sides = [HorizonSide::Above; 4];
     let mut exact = [0.0f32; 4];
     let mut scratch = Vec::with_capacity(96);
-    for (k, sum) in sums.iter_mut().enumerate() {
-        cell_polygon_f32(cell.child(k), &mut poly);
-        for v in poly.iter_mut() {
-            *v = transform_rows(&g.rows, *v);
-        }
-        sides[k] = HorizonSide::of_vertices(&poly);
+    for k in 0..4 {
+        let (lo, hi) = (start[k], start[k + 1] - 1);
+        let zs = &t[2][lo..hi];
+        sides[k] = if zs.iter().all(|&z| z >= 0.0) {
+            HorizonSide::Above
+        } else if zs.iter().all(|&z| z <= 0.0) {
+            HorizonSide::Below
+        } else {
+            HorizonSide::Crossing
+        };
         if sides[k] == HorizonSide::Crossing {
+            poly.clear();
+            poly.extend((lo..hi).map(|i| Vec3::new(t[0][i], t[1][i], t[2][i])));
             exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
-        }
-        let n = poly.len();
-        let mut start = 0;
-        while start < n {
-            let mut a = [[0.0f32; 16]; 3];
-            let mut b = [[0.0f32; 16]; 3];
-            let count = (n - start).min(16);
-            for l in 0..count {
-                let (p, q) = (poly[start + l], poly[(start + l + 1) % n]);
-                for c in 0..3 {
-                    a[c][l] = p[c];
-                    b[c][l] = q[c];
-                }
-            }
-            let e = edge_vectors(a.map(f32x16::from), b.map(f32x16::from));
-            let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
-            for l in 0..count {
-                *sum += Vec3::new(x[l], y[l], z[l]);
-            }
-            start += count;
         }
     }
     (sums, sides, exact)
