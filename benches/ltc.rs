@@ -74,7 +74,7 @@ fn bench(c: &mut Criterion) {
         group.bench_with_input(
             BenchmarkId::new("children_diffuse_precomputed", level),
             &dnode,
-            |b, &n| b.iter(|| diffuse.diffuse_form_factors(black_box(n))),
+            |b, &n| b.iter(|| diffuse.child_integrals(black_box(n), ProductKernel::Simd)),
         );
         group.bench_with_input(BenchmarkId::new("api_simd", level), &node, |b, &n| {
             b.iter(|| glossy.child_integrals(black_box(n), ProductKernel::Simd))

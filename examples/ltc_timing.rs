@@ -85,7 +85,10 @@ fn main() {
         let deep = min_ns(|| {
             black_box(g.children_deep(black_box(cell)));
         });
-        print!("[edge sums x16 only {es:.1}, deep {deep:.1}] ");
+        let dx = min_ns(|| {
+            black_box(d.child_integrals(black_box(cell), ProductKernel::Simd));
+        });
+        print!("[edge sums x16 only {es:.1}, deep {deep:.1}, diffuse api simd {dx:.1}] ");
         println!(
             "{level:>5} | {r:>7.1} | {sc:>6.1} | {x:>5.1} | {:>5.2} | {df:>6.1} | {api:>6.1}",
             sc / x

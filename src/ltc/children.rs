@@ -512,6 +512,9 @@ impl ShadingLtc {
         if self.diffuse_weight > 0.0 {
             let d = match kernel {
                 ProductKernel::Naive => self.diffuse_reference(cell),
+                ProductKernel::Simd if cell.depth >= EXACT_CROSSING_DEPTH => {
+                    children_x16::diffuse_children_x16(self.normal, cell)
+                }
                 _ => self.diffuse_form_factors(cell),
             };
             for k in 0..4 {

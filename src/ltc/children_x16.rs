@@ -319,6 +319,51 @@ pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     [out[0], out[1], out[2], out[3]]
 }
 
+/// Cosine-lobe integrals of the 4 children of a node at depth ≥ 5, lanes
+/// 0..4: the f32 form factors of [`super::form_factor::children_form_factors_f32`]
+/// (exact in φ, Gauss in z), then F·n where the equivalent cap clears the
+/// horizon. Children next to a pole or straddling the horizon take the
+/// scalar route.
+pub fn diffuse_children_x16(normal: Vec3, cell: Cell) -> [f32; 4] {
+    let n_child = 1u64 << (cell.depth + 1);
+    let h = 1.0 / n_child as f32;
+    let dz = 2.0 * h;
+    let (u, w) = ((4 * cell.ix) as f32, (4 * cell.iy) as f32);
+    let hq = 0.5 * h;
+    let zc = [
+        ((u + 1.0) * hq).mul_add(2.0, -1.0),
+        ((u + 3.0) * hq).mul_add(2.0, -1.0),
+    ];
+    let vc = [(w + 1.0) * hq, (w + 3.0) * hq];
+    let zl = f32x16::from(std::array::from_fn::<f32, 16, _>(|l| zc[l & 1]));
+    let vl = f32x16::from(std::array::from_fn::<f32, 16, _>(|l| vc[(l >> 1) & 1]));
+    let off = splat(dz * (0.5 / 3f32.sqrt()));
+    let f = |z: f32x16| (splat(1.0) - z * z).fast_max(splat(0.0)).sqrt();
+    let g = splat(0.5 * dz) * (f(zl - off) + f(zl + off));
+    let x = std::f32::consts::PI * h;
+    let x2 = x * x;
+    let sh = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0));
+    let (s, c) = sincos_turns(vl);
+    let k2 = g * splat(2.0 * sh * std::f32::consts::FRAC_1_PI);
+    let (fx, fy, fz) = (k2 * c, k2 * s, splat(2.0 * h * dz) * zl);
+    let dot = fx * splat(normal.x) + fy * splat(normal.y) + fz * splat(normal.z);
+    let q = fx * fx + fy * fy + fz * fz;
+    let r = dot * dot / q;
+    let clear = (r * r).simd_ge(q) & q.simd_gt(splat(0.0));
+    let fast = dot.fast_max(splat(0.0)).to_array();
+    let mask = clear.to_bitmask();
+    std::array::from_fn(|k| {
+        let child = cell.child(k);
+        let polar = child.ix < 2 || child.ix as u64 >= n_child - 2;
+        if mask & (1 << k) != 0 && !polar {
+            fast[k]
+        } else {
+            let f = super::form_factor::form_factor(child);
+            super::sphere_clip::clipped_integral(f.dot(normal), f.length_squared())
+        }
+    })
+}
+
 /// The 4 child integrals of a glossy lobe, 16 lanes wide.
 pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     let depth = cell.depth + 1;
