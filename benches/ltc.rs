@@ -3,7 +3,7 @@
 //! `children_f64_reference`, `children_scalar` and `children_x16` time the
 //! glossy polygon kernels themselves (the deep-level switch disabled, so
 //! every level runs the edge sums); `children_diffuse_precomputed` times a
-//! diffuse lobe from the cell form factors; `api_simd` is what the guider
+//! diffuse lobe from the cell form factors (through the API, Simd kernel); `api_simd` is what the guider
 //! pays per level through `ShadingLtc::child_integrals` with the default
 //! switches. Cells follow a descent into the lobe (α = 0.1, θ_o = 45°).
 
