@@ -10,6 +10,7 @@ pub mod experiment;
 pub mod film;
 pub mod guiding;
 pub mod integrator;
+pub mod ltc;
 pub mod math;
 pub mod render;
 pub mod sampling;

@@ -1,0 +1,576 @@
+//! The product guider's view of one shading point: the BSDF's lobes as a
+//! mixture of LTCs, and the integral of that mixture over the 4 children of
+//! any quadtree node.
+//!
+//! Per shading point ([`ShadingLtc::new`], ~0.3 µs measured on the shared
+//! 2-core machine): one table lookup per glossy lobe and one 3×3 matrix
+//! A = M⁻¹·R_φᵀ·S·Tᵀ that takes a *world* direction straight into the lobe's
+//! cosine space (Tᵀ: world → shading frame; S: the two-sided mirror,
+//! z ↦ side·z; R_φ: azimuth of ω_o; M⁻¹: the LTC), its determinant and its
+//! switch depth. A diffuse lobe (and a GGX lobe rougher than
+//! `rough_as_diffuse_above`, as in the paper) is a cosine around the
+//! mirrored world normal. Nothing else depends on the shading point.
+//!
+//! Per node ([`ShadingLtc::child_integrals`]): D_k = Σ_lobes w·∫_{child k} D.
+//! - level 1 (quarter spheres): exact clipping of the exact 5-vertex
+//!   polygons (the equator split at its midpoint);
+//! - diffuse lobes: F·n from the cell form factors (tabulated to level 5,
+//!   then an f32 closed form), sphere-clipped across the horizon; to level 5
+//!   a straddling cell is clipped exactly instead;
+//! - glossy lobes: the chord polygons (parallels subdivided to level 5) are
+//!   pushed through A and integrated by the f32 edge sum (scalar, or 16
+//!   lanes: 4 children × 4 edges). The transformed vertices say exactly
+//!   whether a child is above, below or across the horizon; only children
+//!   across it need clipping — exact to level 5, the sphere approximation
+//!   deeper;
+//! - once a child, magnified by the lobe's map, is smaller than
+//!   `deep_cell_size` (so f32 edge sums would lose to cancellation), it gets
+//!   D(ω_centre)·Ω instead; sharp lobes switch deeper than broad ones;
+//! - [`ProductKernel::Naive`] runs the f64 reference with exact clipping.
+//!
+//! Every returned value is finite and non-negative; anything else is zeroed
+//! and counted ([`nonfinite_guard_count`]).
+
+use super::children_x16;
+use super::form_factor;
+use super::polygon::{
+    cell_integral_reference, cell_polygon_f32, clipped_edge_sum_z, edge_vector,
+    is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
+};
+use super::sphere_clip::clipped_integral;
+use super::table::LtcTable;
+use crate::bsdf::Lobes;
+use crate::directional::Cell;
+use crate::math::Frame;
+use glam::{DMat3, DVec3, Vec3};
+use std::f32::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Which implementation computes the child integrals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ProductKernel {
+    /// f64, exact horizon clipping, no precomputation, scalar.
+    Naive,
+    /// Sphere-clipping approximation and precomputed diffuse form factors, scalar f32.
+    Optimized,
+    /// `Optimized`, 16 lanes wide.
+    #[default]
+    Simd,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct LtcOptions {
+    /// GGX lobes rougher than this are integrated as cosines (paper: 0.5).
+    pub rough_as_diffuse_above: f32,
+    /// From this θ_o (degrees) on, [`ShadingLtc::prefers_radiance_only`]
+    /// tells the guider to drop the product (paper: 85°).
+    pub grazing_theta_deg: f32,
+    /// A glossy child whose angular size, magnified by the lobe's map,
+    /// falls below this (radians in cosine space) gets density × solid angle
+    /// instead of an f32 edge sum (measured in `tests/ltc_deep_switch.rs`).
+    pub deep_cell_size: f32,
+}
+
+/// Children up to this depth are clipped exactly (in f32 by the fast
+/// kernels): the level-1 cells are quarter spheres, far too large for the
+/// sphere approximation, and their 5-vertex polygons are cheap.
+pub const EXACT_CLIP_DEPTH: u32 = 1;
+
+/// Cell size in cosine space below which f32 edge sums are less accurate
+/// than D(centre)·Ω (see `tests/ltc_deep_switch.rs`).
+pub const DEFAULT_DEEP_CELL_SIZE: f32 = 0.088;
+
+/// Children up to this depth that straddle the horizon are clipped exactly
+/// (f64): the sphere approximation is poor for such large polygons.
+pub const EXACT_CROSSING_DEPTH: u32 = 5;
+
+/// Where a transformed child polygon lies with respect to the horizon. The
+/// chords are great arcs, so the vertex signs decide it exactly.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HorizonSide {
+    Above,
+    Below,
+    Crossing,
+}
+
+impl HorizonSide {
+    #[inline]
+    pub fn of_masks(above: u32, below: u32, all: u32) -> Self {
+        if above & all == all {
+            HorizonSide::Above
+        } else if below & all == all {
+            HorizonSide::Below
+        } else {
+            HorizonSide::Crossing
+        }
+    }
+    pub fn of_vertices(verts: &[Vec3]) -> Self {
+        if verts.iter().all(|v| v.z >= 0.0) {
+            HorizonSide::Above
+        } else if verts.iter().all(|v| v.z <= 0.0) {
+            HorizonSide::Below
+        } else {
+            HorizonSide::Crossing
+        }
+    }
+}
+
+impl Default for LtcOptions {
+    fn default() -> Self {
+        LtcOptions {
+            rough_as_diffuse_above: 0.5,
+            grazing_theta_deg: 85.0,
+            deep_cell_size: DEFAULT_DEEP_CELL_SIZE,
+        }
+    }
+}
+
+static NONFINITE_GUARDED: AtomicU64 = AtomicU64::new(0);
+
+/// How many non-finite intermediate values the LTC code has zeroed so far.
+pub fn nonfinite_guard_count() -> u64 {
+    NONFINITE_GUARDED.load(Ordering::Relaxed)
+}
+
+#[inline]
+fn guard(v: f32) -> f32 {
+    if v.is_finite() {
+        v.max(0.0)
+    } else {
+        NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+        0.0
+    }
+}
+
+/// One glossy lobe, ready for cells: world → cosine-space map and weight.
+#[derive(Clone, Copy, Debug)]
+pub struct GlossyLtc {
+    /// Lobe weight × GGX albedo: the lobe's share of ∫ f·cos.
+    pub weight: f32,
+    /// A = M⁻¹·R_φᵀ·S·Tᵀ by rows, f32.
+    pub rows: [[f32; 3]; 3],
+    /// A in f64 for the reference kernel.
+    pub a64: DMat3,
+    /// sign(det A): a mirror flips the winding of the transformed cells.
+    pub orientation: f32,
+    /// |det A|, the Jacobian factor of the density.
+    pub det_abs: f32,
+    /// Children at this depth or deeper use density × solid angle: the
+    /// first depth where a cell (2π/2^d wide), magnified by ‖A‖_F, is
+    /// smaller than the deep cell size.
+    pub deep_depth: u32,
+}
+
+impl GlossyLtc {
+    /// From a world→cosine map (f64) and a weight.
+    pub fn from_map(a: DMat3, weight: f32, deep_cell_size: f32) -> Self {
+        let det = a.determinant();
+        let kappa =
+            (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
+                .sqrt();
+        let d = (2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64)
+            .log2()
+            .ceil();
+        let deep_depth = if d.is_finite() {
+            d.clamp(1.0, 64.0) as u32
+        } else {
+            64
+        };
+        let r = a.transpose();
+        let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
+        GlossyLtc {
+            weight,
+            rows: [row(0), row(1), row(2)],
+            a64: a,
+            orientation: if det < 0.0 { -1.0 } else { 1.0 },
+            det_abs: det.abs() as f32,
+            deep_depth,
+        }
+    }
+
+    /// Normalised density at a unit world direction.
+    #[inline]
+    pub fn density(&self, w: Vec3) -> f32 {
+        let p = transform_rows(&self.rows, w);
+        let l2 = p.length_squared();
+        if !(l2 > 0.0) {
+            return 0.0;
+        }
+        p.z.max(0.0) * self.det_abs / (PI * l2 * l2)
+    }
+
+    /// f64 reference integrals of the 4 children (exact clipping).
+    pub fn children_reference(&self, cell: Cell) -> [f32; 4] {
+        let o = self.orientation as f64;
+        std::array::from_fn(|k| cell_integral_reference(cell.child(k), &self.a64, o) as f32)
+    }
+
+    /// Exactly clipped f32 integrals of the 4 children (coarsest levels).
+    pub fn children_exact_f32(&self, cell: Cell) -> [f32; 4] {
+        exact_children_f32(&self.rows, self.orientation, cell)
+    }
+
+    /// Scalar f32 integrals of the 4 children.
+    pub fn children_scalar(&self, cell: Cell, deep_depth: u32) -> [f32; 4] {
+        let depth = cell.depth + 1;
+        if depth <= EXACT_CLIP_DEPTH {
+            return self.children_exact_f32(cell);
+        }
+        if depth >= deep_depth {
+            return self.children_deep(cell);
+        }
+        let (f, sides) = if is_plain_quad_depth(depth) {
+            self.children_edge_sums_grid(cell)
+        } else {
+            let mut poly = Vec::with_capacity(80);
+            let mut scratch = Vec::with_capacity(96);
+            let mut sides = [HorizonSide::Above; 4];
+            let mut exact = [0.0f32; 4];
+            let f = std::array::from_fn(|k| {
+                cell_polygon_f32(cell.child(k), &mut poly);
+                for v in poly.iter_mut() {
+                    *v = transform_rows(&self.rows, *v);
+                }
+                sides[k] = HorizonSide::of_vertices(&poly);
+                if sides[k] == HorizonSide::Crossing {
+                    exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+                }
+                polygon_edge_sum(&poly)
+            });
+            return self.finish_children(cell, f, sides, Some(exact));
+        };
+        self.finish_children(cell, f, sides, None)
+    }
+
+    /// Integrals from the 4 children's edge sums (2π·F, winding as built):
+    /// exact F_z above the horizon, 0 below, and for straddling children
+    /// exact clipping at coarse depths (`exact`: 2π·F_z of the clipped
+    /// polygons when the caller already clipped them), the sphere
+    /// approximation deeper.
+    #[inline]
+    pub fn finish_children(
+        &self,
+        cell: Cell,
+        sums: [Vec3; 4],
+        sides: [HorizonSide; 4],
+        exact: Option<[f32; 4]>,
+    ) -> [f32; 4] {
+        let scale = self.orientation * (0.5 / PI);
+        std::array::from_fn(|k| {
+            let f = sums[k] * scale;
+            match sides[k] {
+                HorizonSide::Above => f.z.max(0.0),
+                HorizonSide::Below => 0.0,
+                HorizonSide::Crossing if cell.depth < EXACT_CROSSING_DEPTH => match exact {
+                    Some(e) => (e[k] * scale).max(0.0),
+                    None => {
+                        cell_integral_reference(cell.child(k), &self.a64, self.orientation as f64)
+                            as f32
+                    }
+                },
+                HorizonSide::Crossing => clipped_integral(f.z, f.length_squared()),
+            }
+        })
+    }
+
+    /// Edge sums of the 4 children of a node whose children are plain quads:
+    /// 9 shared vertices, 12 unique edges (interior ones used twice, once
+    /// reversed).
+    pub fn children_edge_sums_grid(&self, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
+        let (z, v) = child_grid(cell);
+        let sc = v.map(sincos_turns);
+        let r = z.map(|z| (1.0 - z * z).max(0.0).sqrt());
+        let mut p = [[Vec3::ZERO; 3]; 3];
+        for (zi, row) in p.iter_mut().enumerate() {
+            for (vi, q) in row.iter_mut().enumerate() {
+                let (s, c) = sc[vi];
+                *q = transform_rows(&self.rows, Vec3::new(r[zi] * c, r[zi] * s, z[zi]));
+            }
+        }
+        // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
+        let par = |zi: usize, vi: usize| edge_vector(p[zi][vi], p[zi][vi + 1]);
+        let mer = |vi: usize, zi: usize| edge_vector(p[zi][vi], p[zi + 1][vi]);
+        let pe = [
+            [par(0, 0), par(0, 1)],
+            [par(1, 0), par(1, 1)],
+            [par(2, 0), par(2, 1)],
+        ];
+        let me = [
+            [mer(0, 0), mer(0, 1)],
+            [mer(1, 0), mer(1, 1)],
+            [mer(2, 0), mer(2, 1)],
+        ];
+        let sums = std::array::from_fn(|k| {
+            let (iu, iv) = (k & 1, k >> 1);
+            let e0 = pe[iu][iv];
+            let e1 = me[iv + 1][iu];
+            let e2 = -pe[iu + 1][iv];
+            let e3 = -me[iv][iu];
+            (e0 + e1) + (e2 + e3)
+        });
+        let sides = std::array::from_fn(|k| {
+            let (iu, iv) = (k & 1, k >> 1);
+            HorizonSide::of_vertices(&[p[iu][iv], p[iu][iv + 1], p[iu + 1][iv + 1], p[iu + 1][iv]])
+        });
+        (sums, sides)
+    }
+
+    /// D(centre)·Ω for the 4 children.
+    pub fn children_deep(&self, cell: Cell) -> [f32; 4] {
+        let omega = cell.child(0).solid_angle() as f32;
+        let (z, v) = child_centres(cell);
+        // Two heights and two azimuths serve the four centres.
+        let r = z.map(|z| (1.0 - z * z).max(0.0).sqrt());
+        let sc = v.map(sincos_turns);
+        let d = |k: usize| {
+            let (s, c) = sc[k >> 1];
+            let rz = r[k & 1];
+            self.density(Vec3::new(rz * c, rz * s, z[k & 1])) * omega
+        };
+        [d(0), d(1), d(2), d(3)]
+    }
+}
+
+/// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
+pub fn exact_children_f32(rows: &[[f32; 3]; 3], orientation: f32, cell: Cell) -> [f32; 4] {
+    let mut poly = Vec::with_capacity(80);
+    let mut scratch = Vec::with_capacity(96);
+    let scale = orientation * (0.5 / PI);
+    std::array::from_fn(|k| {
+        cell_polygon_f32(cell.child(k), &mut poly);
+        for v in poly.iter_mut() {
+            *v = transform_rows(rows, *v);
+        }
+        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
+    })
+}
+
+/// Heights and azimuths (turns) of the 3×3 corner grid of a node's children;
+/// exact in f32 down to depth 22.
+#[inline]
+pub fn child_grid(cell: Cell) -> ([f32; 3], [f32; 3]) {
+    let h = 1.0 / (1u64 << (cell.depth + 1)) as f32;
+    let (u, w) = ((2 * cell.ix) as f32, (2 * cell.iy) as f32);
+    (
+        [
+            (u * h).mul_add(2.0, -1.0),
+            ((u + 1.0) * h).mul_add(2.0, -1.0),
+            ((u + 2.0) * h).mul_add(2.0, -1.0),
+        ],
+        [w * h, (w + 1.0) * h, (w + 2.0) * h],
+    )
+}
+
+/// Centres of the children: heights (by u bit) and azimuths (by v bit).
+#[inline]
+pub fn child_centres(cell: Cell) -> ([f32; 2], [f32; 2]) {
+    let h = 1.0 / (1u64 << (cell.depth + 2)) as f32;
+    let (u, w) = ((4 * cell.ix) as f32, (4 * cell.iy) as f32);
+    (
+        [
+            ((u + 1.0) * h).mul_add(2.0, -1.0),
+            ((u + 3.0) * h).mul_add(2.0, -1.0),
+        ],
+        [(w + 1.0) * h, (w + 3.0) * h],
+    )
+}
+
+/// The LTC mixture of one shading point.
+#[derive(Clone, Debug)]
+pub struct ShadingLtc {
+    /// Weight of the cosine lobe (diffuse + GGX lobes treated as diffuse).
+    pub diffuse_weight: f32,
+    /// World normal on the lobes' side (flipped when `Lobes::side` < 0).
+    pub normal: Vec3,
+    /// World → cosine-space map of the diffuse lobe (f64 reference).
+    diffuse_map: DMat3,
+    diffuse_rows: [[f32; 3]; 3],
+    diffuse_orientation: f32,
+    pub glossy: [GlossyLtc; 1],
+    pub glossy_count: usize,
+    pub cos_theta_o: f32,
+    grazing_cos: f32,
+    total: f32,
+}
+
+fn sanitize_weight(w: f32) -> f32 {
+    if w.is_finite() {
+        w.max(0.0)
+    } else {
+        NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+        0.0
+    }
+}
+
+impl ShadingLtc {
+    /// `frame` maps world ↔ shading frame; `wo_local` is ω_o in the frame the
+    /// lobes were computed in (after two-sided mirroring, as `Lobes` states).
+    pub fn new(
+        lobes: &Lobes,
+        frame: &Frame,
+        wo_local: Vec3,
+        table: &LtcTable,
+        opts: &LtcOptions,
+    ) -> Self {
+        let side: f64 = if lobes.side < 0.0 { -1.0 } else { 1.0 };
+        let to_local = DMat3::from_cols(
+            frame.s.as_dvec3(),
+            frame.t.as_dvec3(),
+            frame.n.as_dvec3() * side,
+        )
+        .transpose();
+        let mut normal = frame.n * side as f32;
+        if !(normal.is_finite() && normal.length_squared() > 0.0) {
+            NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+            normal = Vec3::Z;
+        }
+        let wo = if wo_local.is_finite() {
+            wo_local
+        } else {
+            NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+            Vec3::Z
+        };
+        let cos_theta_o = (wo.z / wo.length().max(1e-30)).clamp(0.0, 1.0);
+        let phi_o = if wo.x == 0.0 && wo.y == 0.0 {
+            0.0
+        } else {
+            (wo.y as f64).atan2(wo.x as f64)
+        };
+        let (sp, cp) = phi_o.sin_cos();
+        let rot_t = DMat3::from_cols(DVec3::new(cp, -sp, 0.0), DVec3::new(sp, cp, 0.0), DVec3::Z);
+        let mut diffuse_weight = sanitize_weight(lobes.diffuse);
+        let mut glossy = [GlossyLtc::from_map(DMat3::IDENTITY, 0.0, opts.deep_cell_size); 1];
+        let mut glossy_count = 0;
+        for lobe in lobes.ggx.iter().take(lobes.ggx_count.min(1)) {
+            let w = sanitize_weight(lobe.weight);
+            let alpha = if lobe.alpha.is_finite() {
+                lobe.alpha
+            } else {
+                NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+                1.0
+            };
+            if w <= 0.0 {
+                continue;
+            }
+            let entry = table.lookup(alpha, cos_theta_o);
+            let weight = w * entry.albedo.max(0.0);
+            if alpha > opts.rough_as_diffuse_above {
+                diffuse_weight += weight;
+                continue;
+            }
+            let m_inv = entry.params().matrix().inverse();
+            let a = m_inv * rot_t * to_local;
+            if !(a.is_finite() && weight > 0.0) {
+                continue;
+            }
+            glossy[glossy_count] = GlossyLtc::from_map(a, weight, opts.deep_cell_size);
+            glossy_count += 1;
+        }
+        let total = diffuse_weight + glossy[..glossy_count].iter().map(|g| g.weight).sum::<f32>();
+        let diffuse_lobe = GlossyLtc::from_map(to_local, 1.0, opts.deep_cell_size);
+        ShadingLtc {
+            diffuse_weight,
+            normal,
+            diffuse_map: to_local,
+            diffuse_rows: diffuse_lobe.rows,
+            diffuse_orientation: diffuse_lobe.orientation,
+            glossy,
+            glossy_count,
+            cos_theta_o,
+            grazing_cos: opts.grazing_theta_deg.to_radians().cos(),
+            total: guard(total),
+        }
+    }
+
+    /// ∫ over the sphere of the mixture: Σ weights × albedos.
+    pub fn total(&self) -> f32 {
+        self.total
+    }
+
+    /// The paper's fallbacks: radiance-only guiding at grazing ω_o, or when
+    /// the product vanishes everywhere.
+    pub fn prefers_radiance_only(&self) -> bool {
+        self.cos_theta_o <= self.grazing_cos || !(self.total > 0.0)
+    }
+
+    /// Mixture density (∫ = total) at a unit world direction.
+    pub fn density(&self, w: Vec3) -> f32 {
+        let mut d = self.diffuse_weight * self.normal.dot(w).max(0.0) / PI;
+        for g in &self.glossy[..self.glossy_count] {
+            d += g.weight * g.density(w);
+        }
+        guard(d)
+    }
+
+    /// D_k = ∫_{child k of `cell`} (mixture) dω, k in the order of
+    /// [`Cell::child`]. Finite and non-negative.
+    pub fn child_integrals(&self, cell: Cell, kernel: ProductKernel) -> [f32; 4] {
+        let mut out = [0.0f32; 4];
+        if !(self.total > 0.0) {
+            return out;
+        }
+        if self.diffuse_weight > 0.0 {
+            let d = match kernel {
+                ProductKernel::Naive => self.diffuse_reference(cell),
+                ProductKernel::Simd if cell.depth >= EXACT_CROSSING_DEPTH => {
+                    children_x16::diffuse_children_x16(self.normal, cell)
+                }
+                _ => self.diffuse_form_factors(cell),
+            };
+            for k in 0..4 {
+                out[k] += self.diffuse_weight * d[k];
+            }
+        }
+        for g in &self.glossy[..self.glossy_count] {
+            let d = match kernel {
+                ProductKernel::Naive => g.children_reference(cell),
+                ProductKernel::Optimized => g.children_scalar(cell, g.deep_depth),
+                ProductKernel::Simd => children_x16::children_x16(g, cell, g.deep_depth),
+            };
+            for k in 0..4 {
+                out[k] += g.weight * d[k];
+            }
+        }
+        out.map(guard)
+    }
+
+    /// Cosine-lobe integrals by exact clipping in f64.
+    pub fn diffuse_reference(&self, cell: Cell) -> [f32; 4] {
+        let o = self.diffuse_map.determinant().signum();
+        std::array::from_fn(|k| cell_integral_reference(cell.child(k), &self.diffuse_map, o) as f32)
+    }
+
+    /// Cosine-lobe integrals from cell form factors: F·n where the cell is
+    /// above the horizon, sphere-clipped across it.
+    pub fn diffuse_form_factors(&self, cell: Cell) -> [f32; 4] {
+        if cell.depth < EXACT_CLIP_DEPTH {
+            return exact_children_f32(&self.diffuse_rows, self.diffuse_orientation, cell);
+        }
+        if cell.depth < EXACT_CROSSING_DEPTH {
+            // Large cells: classify by the polygon, clip straddlers exactly.
+            let mut poly = Vec::with_capacity(40);
+            let mut scratch = Vec::with_capacity(48);
+            let scale = self.diffuse_orientation * (0.5 / PI);
+            return std::array::from_fn(|k| {
+                let child = cell.child(k);
+                cell_polygon_f32(child, &mut poly);
+                for v in poly.iter_mut() {
+                    *v = transform_rows(&self.diffuse_rows, *v);
+                }
+                match HorizonSide::of_vertices(&poly) {
+                    HorizonSide::Above => form_factor::form_factor(child).dot(self.normal).max(0.0),
+                    HorizonSide::Below => 0.0,
+                    HorizonSide::Crossing => {
+                        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
+                    }
+                }
+            });
+        }
+        let f = if cell.depth < form_factor::PRECOMPUTED_DEPTH {
+            std::array::from_fn(|k| form_factor::form_factor(cell.child(k)))
+        } else {
+            form_factor::children_form_factors_f32(cell)
+        };
+        f.map(|f| clipped_integral(f.dot(self.normal), f.length_squared()))
+    }
+}

@@ -1,0 +1,43 @@
+//! Linearly transformed cosines for product path guiding (Diolatzis et al.
+//! 2020, §3; Heitz et al. 2016).
+//!
+//! Product guiding needs, at every level of a quadtree descent, the integral
+//! of the cosine-weighted BSDF over each of the 4 children of a node. The
+//! BSDF's lobes are approximated by LTCs — clamped cosines pushed through a
+//! 3×3 matrix — whose integral over a spherical polygon is the clamped
+//! cosine's integral over the polygon mapped back by M⁻¹, a closed-form sum
+//! over its edges. The pieces, in the order of the paper:
+//!
+//! - [`ggx`]: the function being fitted, GGX·cos with Fresnel 1 and
+//!   height-correlated Smith G2;
+//! - [`fit`]: the Heitz-style fitter behind `ltcguide fit-ltc` (Nelder–Mead
+//!   on an MIS-estimated L1 error, warm-started, deterministic);
+//! - [`table`]: the 128×128 table over (α, θ_o) committed under `data/`,
+//!   with the GGX albedo, and its bilinear lookup;
+//! - [`lobe`]: one LTC — density, sampling;
+//! - [`polygon`]: the cells as polygons (parallels replaced by chords,
+//!   subdivided at coarse levels) and the edge integrals: an f64 reference
+//!   with exact horizon clipping and the f32 edge sum of the fast paths;
+//! - [`sphere_clip`]: horizon clipping by the sphere approximation (Snyder's
+//!   closed form, tabulated);
+//! - [`form_factor`]: exact vector form factors of cylindrical cells, the
+//!   diffuse lobe's whole cost;
+//! - [`children`]: the per-shading-point mixture ([`ShadingLtc`]) and the
+//!   4-child integrals of a node — the API the product guider calls;
+//! - [`children_x16`]: the same 4 children × 4 edges in one f32x16.
+// `!(x > 0.0)` is deliberate throughout: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod children;
+pub mod children_x16;
+pub mod fit;
+pub mod form_factor;
+pub mod ggx;
+pub mod lobe;
+pub mod polygon;
+pub mod sphere_clip;
+pub mod table;
+
+pub use children::{LtcOptions, ProductKernel, ShadingLtc, nonfinite_guard_count};
+pub use fit::{FitOptions, FitReport, run_fit};
+pub use table::LtcTable;
