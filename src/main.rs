@@ -5,6 +5,7 @@ use ltcguide::film::exr_io::{read_image, write_rgb};
 use ltcguide::film::metrics::{mae, relmse};
 use ltcguide::film::png_io::write_png;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
+use ltcguide::ltc::ProductKernel;
 use ltcguide::render::{Budget, Method, RenderOptions, render};
 use ltcguide::scene::{Scene, load_scene};
 use std::path::{Path, PathBuf};
@@ -28,6 +29,17 @@ enum Command {
     Info { scene: PathBuf },
     /// Equal-time comparison of methods: error-versus-time curves, summary and images.
     Compare(CompareArgs),
+    /// Fit the LTC table to GGX·cos (Heitz et al. 2016) and write it with its error summary.
+    FitLtc {
+        /// Output directory (the committed table lives in data/).
+        #[arg(long, default_value = "data")]
+        out: PathBuf,
+        /// Nodes per axis over (α, θ_o).
+        #[arg(long, default_value_t = 128)]
+        resolution: usize,
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
 }
 
 #[derive(Args, Clone)]
@@ -90,6 +102,9 @@ struct RenderArgs {
     /// Write render statistics as JSON.
     #[arg(long)]
     stats_json: Option<PathBuf>,
+    /// Product guiding: child-integral implementation (the paper's Table 1 variants).
+    #[arg(long, value_enum, default_value_t = KernelArg::Simd)]
+    product_kernel: KernelArg,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -102,6 +117,26 @@ struct RenderArgs {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum Aov {
     Alpha,
+}
+
+/// `--product-kernel`: naive = exact clipping, no diffuse precomputation,
+/// scalar f64; optimized = sphere clipping + precomputed diffuse form
+/// factors, scalar f32; simd = optimized, 16 lanes wide.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum KernelArg {
+    Naive,
+    Optimized,
+    Simd,
+}
+
+impl From<KernelArg> for ProductKernel {
+    fn from(k: KernelArg) -> Self {
+        match k {
+            KernelArg::Naive => ProductKernel::Naive,
+            KernelArg::Optimized => ProductKernel::Optimized,
+            KernelArg::Simd => ProductKernel::Simd,
+        }
+    }
 }
 
 /// Bad input (scene, image, arguments): exit code 2, like clap's own errors.
@@ -119,6 +154,11 @@ fn main() -> ExitCode {
         Command::Error { image, reference } => cmd_error(&image, &reference),
         Command::Info { scene } => cmd_info(&scene),
         Command::Compare(args) => cmd_compare(&args),
+        Command::FitLtc {
+            out,
+            resolution,
+            threads,
+        } => cmd_fit_ltc(out, resolution, threads),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -186,6 +226,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         progress: true,
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
+        product_kernel: args.product_kernel.into(),
     };
     if let Some(a) = args.bsdf_fraction {
         if !(0.0..=1.0).contains(&a) {
@@ -277,7 +318,11 @@ fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
     PathSettings {
         nee: !guided,
         max_depth: scene.max_depth.or(Some(10)),
-        roulette: if guided { RouletteMode::Adrrs } else { RouletteMode::Classic },
+        roulette: if guided {
+            RouletteMode::Adrrs
+        } else {
+            RouletteMode::Classic
+        },
     }
 }
 
@@ -298,6 +343,35 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;
     println!("{}", outcome.summary);
+    Ok(())
+}
+
+fn cmd_fit_ltc(out_dir: PathBuf, resolution: usize, threads: usize) -> Result<(), String> {
+    if resolution < 2 {
+        return Err("--resolution must be at least 2".into());
+    }
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create '{}': {e}", out_dir.display()))?;
+    let opts = ltcguide::ltc::FitOptions {
+        out_dir,
+        resolution,
+        threads,
+        verbose: std::io::IsTerminal::is_terminal(&std::io::stderr()),
+        ..Default::default()
+    };
+    let report = ltcguide::ltc::run_fit(&opts)?;
+    println!(
+        "fitted {r}×{r} in {:.1} s: L1 mean {:.4}, median {:.4}, p95 {:.4}, max {:.4}",
+        report.seconds,
+        report.mean_l1,
+        report.median_l1,
+        report.p95_l1,
+        report.max_l1,
+        r = resolution
+    );
+    println!("table   {}", report.table_path.display());
+    println!("errors  {}", report.csv_path.display());
+    println!("summary {}", report.summary_path.display());
     Ok(())
 }
 

@@ -3,8 +3,20 @@
 
 use crate::film::image::{Film, Image};
 use crate::guiding::guide::RadianceModel;
+use crate::guiding::product::ProductModel;
 use crate::guiding::sdtree::SdTree;
 use crate::guiding::train::{GuidingStats, render_guided};
+use crate::ltc::{LtcOptions, LtcTable, ProductKernel};
+use std::sync::OnceLock;
+
+/// The committed LTC table, decoded once.
+pub fn default_ltc_table() -> Result<&'static LtcTable, String> {
+    static TABLE: OnceLock<Result<LtcTable, String>> = OnceLock::new();
+    TABLE
+        .get_or_init(LtcTable::load_default)
+        .as_ref()
+        .map_err(|e| e.clone())
+}
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::PathSettings;
 use crate::integrator::stats::RenderCounters;
@@ -26,6 +38,8 @@ pub enum Method {
     Pt,
     /// Practical path guiding: SD-tree, radiance-proportional descent.
     Radiance,
+    /// Product guiding: descent proportional to radiance × LTC-integrated BSDF.
+    Product,
 }
 
 /// A wall clock that can leave out time spent on bookkeeping (snapshots), so
@@ -122,6 +136,8 @@ pub struct RenderOptions {
     pub snapshot_times: Vec<f64>,
     /// Guided methods: a fixed BSDF-sampling fraction instead of the learned one.
     pub bsdf_fraction: Option<f32>,
+    /// Product guiding: which child-integral implementation.
+    pub product_kernel: ProductKernel,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -188,38 +204,57 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         Budget::Seconds(s) => ((s * 1000.0) as u64, format!("{:?} ms", opts.method)),
     };
     let bar = progress_bar(opts.progress, len, &what.to_lowercase());
-    let (image, variance, spp, counters, guiding, tree) = pool.install(|| match opts.method {
-        Method::Pt => {
-            let (film, counters) =
-                render_unguided(scene, opts, &mut clock, &mut snapshots, bar.as_ref());
-            (
-                film.image(),
-                film.variance_of_mean(),
-                film.spp,
-                counters,
-                None,
-                None,
-            )
-        }
-        Method::Radiance => {
-            let out = render_guided(
-                scene,
-                opts,
-                &RadianceModel,
-                &mut clock,
-                &mut snapshots,
-                bar.as_ref(),
-            );
-            (
-                out.image,
-                out.variance,
-                out.spp,
-                out.counters,
-                Some(out.stats),
-                Some(out.tree),
-            )
-        }
-    });
+    let (image, variance, spp, counters, guiding, tree) =
+        pool.install(|| -> Result<_, String> {
+            let guided = |out: crate::guiding::train::GuidedOutput| {
+                (
+                    out.image,
+                    out.variance,
+                    out.spp,
+                    out.counters,
+                    Some(out.stats),
+                    Some(out.tree),
+                )
+            };
+            Ok(match opts.method {
+                Method::Pt => {
+                    let (film, counters) =
+                        render_unguided(scene, opts, &mut clock, &mut snapshots, bar.as_ref());
+                    (
+                        film.image(),
+                        film.variance_of_mean(),
+                        film.spp,
+                        counters,
+                        None,
+                        None,
+                    )
+                }
+                Method::Radiance => guided(render_guided(
+                    scene,
+                    opts,
+                    &RadianceModel,
+                    &mut clock,
+                    &mut snapshots,
+                    bar.as_ref(),
+                )),
+                Method::Product => {
+                    // Only product guiding needs the LTC table (decoded once per process).
+                    let model = ProductModel {
+                        table: default_ltc_table()?,
+                        kernel: opts.product_kernel,
+                        options: LtcOptions::default(),
+                    };
+                    guided(render_guided(
+                        scene,
+                        opts,
+                        &model,
+                        &mut clock,
+                        &mut snapshots,
+                        bar.as_ref(),
+                    ))
+                }
+            })
+        })?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }

@@ -15,7 +15,9 @@ use ltcguide::scene::load_scene;
 use std::path::Path;
 
 fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool) {
-    let Some((scene, _)) = pack_scene(name) else { return };
+    let Some((scene, _)) = pack_scene(name) else {
+        return;
+    };
     let pt = render_spp(&scene, Method::Pt, 16, 3, true);
     let opts = RenderOptions {
         method,
@@ -30,10 +32,15 @@ fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool
         progress: false,
         snapshot_times: Vec::new(),
         bsdf_fraction: None,
+        product_kernel: Default::default(),
     };
     let guided = render(&scene, &opts).expect("render");
     let c = guided.stats.counters;
-    assert_eq!(c.nonfinite_samples + c.invalid_scattering, 0, "{name}: {c:?}");
+    assert_eq!(
+        c.nonfinite_samples + c.invalid_scattering,
+        0,
+        "{name}: {c:?}"
+    );
     let cmp = compare_blocks(&guided.image, &guided.variance, &pt.image, &pt.variance, 32).unwrap();
     eprintln!(
         "{name} {method:?} vs pt: means {:.5} / {:.5}, z_global {:.2}, mean z² {:.2}, max |z| {:.2}, beyond 4σ {:.1} %",
@@ -44,14 +51,32 @@ fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool
         cmp.max_abs_z(),
         100.0 * cmp.fraction_above(4.0)
     );
-    assert!(cmp.mean_z2() < 2.0, "{name}: mean z² = {:.2}", cmp.mean_z2());
-    assert!(cmp.fraction_above(4.0) <= 0.03, "{name}: {:.1} % beyond 4σ", 100.0 * cmp.fraction_above(4.0));
-    assert!(cmp.z_global.abs() < 4.0, "{name}: global z = {:.2}", cmp.z_global);
+    assert!(
+        cmp.mean_z2() < 2.0,
+        "{name}: mean z² = {:.2}",
+        cmp.mean_z2()
+    );
+    assert!(
+        cmp.fraction_above(4.0) <= 0.03,
+        "{name}: {:.1} % beyond 4σ",
+        100.0 * cmp.fraction_above(4.0)
+    );
+    assert!(
+        cmp.z_global.abs() < 4.0,
+        "{name}: global z = {:.2}",
+        cmp.z_global
+    );
 }
 
 #[test]
 fn radiance_agrees_with_pt_on_cornell_box() {
-    agree("cornell-box", Method::Radiance, 32, RouletteMode::Classic, false);
+    agree(
+        "cornell-box",
+        Method::Radiance,
+        32,
+        RouletteMode::Classic,
+        false,
+    );
 }
 
 #[test]
@@ -59,22 +84,46 @@ fn radiance_agrees_with_pt_on_veach_mis() {
     // Without NEE, the tiny bright spheres seen through diffuse bounces are
     // fireflies at 32 spp whose variance the samples underestimate; with
     // NEE (the guide mixes with light sampling by MIS) the test is tight.
-    agree("veach-mis", Method::Radiance, 32, RouletteMode::Classic, true);
+    agree(
+        "veach-mis",
+        Method::Radiance,
+        32,
+        RouletteMode::Classic,
+        true,
+    );
 }
 
 #[test]
 fn radiance_agrees_with_pt_on_veach_ajar() {
-    agree("veach-ajar", Method::Radiance, 32, RouletteMode::Adrrs, false);
+    agree(
+        "veach-ajar",
+        Method::Radiance,
+        32,
+        RouletteMode::Adrrs,
+        false,
+    );
 }
 
 #[test]
 fn radiance_agrees_with_pt_on_staircase() {
-    agree("staircase", Method::Radiance, 16, RouletteMode::Adrrs, false);
+    agree(
+        "staircase",
+        Method::Radiance,
+        16,
+        RouletteMode::Adrrs,
+        false,
+    );
 }
 
 #[test]
 fn radiance_agrees_with_pt_on_living_room() {
-    agree("living-room", Method::Radiance, 16, RouletteMode::Classic, false);
+    agree(
+        "living-room",
+        Method::Radiance,
+        16,
+        RouletteMode::Classic,
+        false,
+    );
 }
 
 fn own_scene() -> ltcguide::scene::Scene {
@@ -99,13 +148,17 @@ fn a_fixed_seed_gives_a_fixed_image_whatever_the_thread_count() {
                 progress: false,
                 snapshot_times: Vec::new(),
                 bsdf_fraction: None,
+                product_kernel: Default::default(),
             };
             render(&scene, &opts).unwrap().image.pixels
         };
         let a = run(1, 42);
         let b = run(2, 42);
         let c = run(3, 42);
-        assert!(a == b && b == c, "{method:?}: images differ across thread counts");
+        assert!(
+            a == b && b == c,
+            "{method:?}: images differ across thread counts"
+        );
         assert!(a != run(2, 43), "{method:?}: the seed has no effect");
     }
 }

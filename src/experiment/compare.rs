@@ -44,7 +44,11 @@ pub fn snapshot_times(seconds: f64) -> Vec<f64> {
     SnapshotPlan::geometric(seconds / 64.0, seconds, 3).times
 }
 
-pub fn run_compare(scene: &Scene, reference: &Image, opts: &CompareOptions) -> Result<CompareOutcome, String> {
+pub fn run_compare(
+    scene: &Scene,
+    reference: &Image,
+    opts: &CompareOptions,
+) -> Result<CompareOutcome, String> {
     if reference.width != scene.camera.width || reference.height != scene.camera.height {
         return Err(format!(
             "the reference is {}×{} but the scene renders {}×{}",
@@ -54,14 +58,20 @@ pub fn run_compare(scene: &Scene, reference: &Image, opts: &CompareOptions) -> R
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
     }
-    std::fs::create_dir_all(&opts.out_dir).map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
+    std::fs::create_dir_all(&opts.out_dir)
+        .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
     let mut rows = Vec::new();
     let mut notes = Vec::new();
     for &method in &opts.methods {
         let name = method_name(method);
         for run in 0..opts.runs {
             if opts.progress {
-                eprintln!("compare: {name}, run {} of {}, {:.0} s", run + 1, opts.runs, opts.seconds);
+                eprintln!(
+                    "compare: {name}, run {} of {}, {:.0} s",
+                    run + 1,
+                    opts.runs,
+                    opts.seconds
+                );
             }
             let ropts = RenderOptions {
                 method,
@@ -72,6 +82,7 @@ pub fn run_compare(scene: &Scene, reference: &Image, opts: &CompareOptions) -> R
                 progress: opts.progress,
                 snapshot_times: snapshot_times(opts.seconds),
                 bsdf_fraction: None,
+                product_kernel: Default::default(),
             };
             let result = render(scene, &ropts)?;
             for s in &result.snapshots {
@@ -102,12 +113,23 @@ pub fn run_compare(scene: &Scene, reference: &Image, opts: &CompareOptions) -> R
     }
     let csv = to_csv(&rows);
     write_atomic(&opts.out_dir.join("curves.csv"), csv.as_bytes())?;
-    let curves: Vec<MeanCurve> = opts.methods.iter().map(|&m| mean_curve(&rows, &method_name(m))).collect();
-    let svg = curves_svg(&format!("{} — error vs time ({} runs)", scene.name, opts.runs), &curves)?;
+    let curves: Vec<MeanCurve> = opts
+        .methods
+        .iter()
+        .map(|&m| mean_curve(&rows, &method_name(m)))
+        .collect();
+    let svg = curves_svg(
+        &format!("{} — error vs time ({} runs)", scene.name, opts.runs),
+        &curves,
+    )?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
     let summary = summary_markdown(scene, opts, &rows, &curves, &notes);
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
-    Ok(CompareOutcome { rows, curves, summary })
+    Ok(CompareOutcome {
+        rows,
+        curves,
+        summary,
+    })
 }
 
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
@@ -116,8 +138,18 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
     crate::film::commit_temp(&tmp, path)
 }
 
-fn write_final_images(dir: &Path, name: &str, image: &Image, reference: &Image) -> Result<(), String> {
-    write_rgb(&dir.join(format!("{name}.exr")), image.width, image.height, &image.pixels)?;
+fn write_final_images(
+    dir: &Path,
+    name: &str,
+    image: &Image,
+    reference: &Image,
+) -> Result<(), String> {
+    write_rgb(
+        &dir.join(format!("{name}.exr")),
+        image.width,
+        image.height,
+        &image.pixels,
+    )?;
     write_png(&dir.join(format!("{name}.png")), image)?;
     // Per-pixel relative error |I − R| / (R + 0.01) on a log scale.
     let err: Vec<f32> = image
@@ -130,7 +162,12 @@ fn write_final_images(dir: &Path, name: &str, image: &Image, reference: &Image) 
         })
         .collect();
     let rgb = log_scale_rgb(&err, 1e-3, 10.0);
-    write_png_rgb8(&dir.join(format!("{name}-error.png")), image.width, image.height, &rgb)
+    write_png_rgb8(
+        &dir.join(format!("{name}-error.png")),
+        image.width,
+        image.height,
+        &rgb,
+    )
 }
 
 /// The CPU model, from /proc/cpuinfo where available.
@@ -146,9 +183,19 @@ pub fn cpu_model() -> String {
         .unwrap_or_else(|| std::env::consts::ARCH.to_string())
 }
 
-fn summary_markdown(scene: &Scene, opts: &CompareOptions, rows: &[CurveRow], curves: &[MeanCurve], notes: &[String]) -> String {
+fn summary_markdown(
+    scene: &Scene,
+    opts: &CompareOptions,
+    rows: &[CurveRow],
+    curves: &[MeanCurve],
+    notes: &[String],
+) -> String {
     let mut s = String::new();
-    let threads = if opts.threads == 0 { rayon::current_num_threads() } else { opts.threads };
+    let threads = if opts.threads == 0 {
+        rayon::current_num_threads()
+    } else {
+        opts.threads
+    };
     let _ = writeln!(s, "# {}: equal-time comparison\n", scene.name);
     let _ = writeln!(
         s,
@@ -158,7 +205,10 @@ fn summary_markdown(scene: &Scene, opts: &CompareOptions, rows: &[CurveRow], cur
         threads,
         cpu_model()
     );
-    let _ = writeln!(s, "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |");
+    let _ = writeln!(
+        s,
+        "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"
+    );
     let _ = writeln!(s, "|---|---|---|---|");
     let finals = |m: &str| -> Vec<&CurveRow> {
         let mut last: Vec<&CurveRow> = Vec::new();
@@ -174,7 +224,11 @@ fn summary_markdown(scene: &Scene, opts: &CompareOptions, rows: &[CurveRow], cur
         let (rm, rs) = mean_std(&f.iter().map(|r| r.relmse).collect::<Vec<_>>());
         let (mm, ms) = mean_std(&f.iter().map(|r| r.mae).collect::<Vec<_>>());
         let spp = f.iter().map(|r| r.spp as f64).sum::<f64>() / f.len().max(1) as f64;
-        let _ = writeln!(s, "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |", c.method, spp, rm, rs, mm, ms);
+        let _ = writeln!(
+            s,
+            "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |",
+            c.method, spp, rm, rs, mm, ms
+        );
     }
     if let Some(base) = curves.iter().find(|c| c.method == "radiance") {
         let _ = writeln!(s, "\n## Time-to-error speedup relative to `radiance`\n");
@@ -203,7 +257,13 @@ fn summary_markdown(scene: &Scene, opts: &CompareOptions, rows: &[CurveRow], cur
                     None => "—".into(),
                 }
             };
-            let _ = writeln!(s, "| {} | {} | {} |", c.method, cell(|c| &c.relmse), cell(|c| &c.mae));
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} |",
+                c.method,
+                cell(|c| &c.relmse),
+                cell(|c| &c.mae)
+            );
         }
     }
     if !notes.is_empty() {

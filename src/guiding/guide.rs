@@ -23,7 +23,7 @@ pub trait WeightModel: Sync {
 
     /// The reflected radiance towards ω_o (the adjoint ADRRS needs), given
     /// the descent's root normaliser Σ_k w_k.
-    fn adjoint(&self, ctx: &VertexContext, root_total: f32) -> f32;
+    fn adjoint(&self, weights: &Self::Weights<'_>, ctx: &VertexContext, root_total: f32) -> f32;
 }
 
 /// Practical path guiding: child weights are the stored radiance.
@@ -40,7 +40,7 @@ impl WeightModel for RadianceModel {
     /// without a BSDF integral, the reflected radiance is estimated as
     /// albedo × mean incident radiance (exact for a diffuse surface under
     /// uniform light).
-    fn adjoint(&self, ctx: &VertexContext, root_total: f32) -> f32 {
+    fn adjoint(&self, _weights: &RadianceWeights, ctx: &VertexContext, root_total: f32) -> f32 {
         ctx.bsdf.albedo_estimate(ctx.wo_local) * 0.25 * root_total
     }
 }
@@ -103,7 +103,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         if !(root_total > 0.0 && root_total.is_finite()) {
             return None;
         }
-        let adjoint = self.model.adjoint(ctx, root_total);
+        let adjoint = self.model.adjoint(&weights, ctx, root_total);
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,

@@ -60,6 +60,7 @@ pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool)
         progress: false,
         snapshot_times: Vec::new(),
         bsdf_fraction: None,
+        product_kernel: Default::default(),
     };
     render(scene, &opts).expect("render")
 }
