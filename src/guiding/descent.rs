@@ -31,6 +31,36 @@ pub trait ChildWeights {
     /// (radiance guiding returns `radiance` unchanged; product guiding
     /// returns radiance[k]·D_k).
     fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4];
+
+    /// Depth down to which the descent continues *below* the tree's leaves,
+    /// giving the four sub-cells the leaf's radiance: product guiding's BSDF
+    /// factor still varies inside a leaf, and a glossy lobe narrower than
+    /// the leaf would otherwise be sampled uniformly over the whole leaf.
+    /// 0 (radiance guiding): stop at the leaves.
+    fn refine_below_leaves_to(&self) -> u32 {
+        0
+    }
+}
+
+/// Below the leaves, the descent stops once the sub-cell weights are this
+/// close to uniform: sampling the cell uniformly is then as good.
+const VIRTUAL_UNIFORM_RATIO: f32 = 1.02;
+
+/// Below the leaves, the descent also stops in cells holding less than this
+/// probability: they are rarely visited, and refining them buys nothing.
+const VIRTUAL_MIN_MASS: f32 = 1e-4;
+
+/// Probability mass of a cell reached with square-measure pdf `pdf`.
+#[inline]
+fn cell_mass(pdf: f32, cell: Cell) -> f32 {
+    pdf * f32::from_bits((127 - 2 * cell.depth) << 23)
+}
+
+#[inline]
+fn nearly_uniform(w: [f32; 4]) -> bool {
+    let max = w[0].max(w[1]).max(w[2].max(w[3]));
+    let min = w[0].min(w[1]).min(w[2].min(w[3]));
+    max <= VIRTUAL_UNIFORM_RATIO * min
 }
 
 /// Radiance-only guiding: w_k = L_k.
@@ -48,6 +78,10 @@ impl<W: ChildWeights + ?Sized> ChildWeights for &mut W {
     #[inline]
     fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
         (**self).child_weights(cell, radiance)
+    }
+
+    fn refine_below_leaves_to(&self) -> u32 {
+        (**self).refine_below_leaves_to()
     }
 }
 
@@ -152,15 +186,25 @@ pub fn sample_descend<W: ChildWeights>(
     let nodes = tree.nodes();
     let clamp = |x: f32| if x >= 0.0 { x.min(ONE_MINUS_EPS) } else { 0.0 };
     let mut u = Vec2::new(clamp(u.x), clamp(u.y));
-    let mut idx = 0usize;
+    let refine_to = weights.refine_below_leaves_to();
+    // `node` is None below the tree's leaves, where `sums` replicate the
+    // leaf's radiance.
+    let mut node = Some(0usize);
+    let mut sums = nodes.first()?.sums;
     let mut cell = Cell::ROOT;
     let mut pdf = 1.0f32;
     let mut root_total = 0.0;
     loop {
-        let node = &nodes[idx];
-        let (w, total, reported) = resolve(weights, cell, node.sums)?;
+        let (w, total, reported) = resolve(weights, cell, sums)?;
         if cell.depth == 0 {
             root_total = reported;
+        }
+        if node.is_none() && (nearly_uniform(w) || cell_mass(pdf, cell) < VIRTUAL_MIN_MASS) {
+            return Some(Descended {
+                point: cell_point(cell, u),
+                pdf_square: pdf,
+                root_total,
+            });
         }
         // Column (u) from the marginal, then row (v) within the column.
         let (bx, ux) = split(u.x, w[0] + w[2], w[1] + w[3]);
@@ -171,7 +215,12 @@ pub fn sample_descend<W: ChildWeights>(
         let k = bx | (by << 1);
         pdf = step_pdf(pdf, w[k], total);
         let child = cell.child(k);
-        match node.children[k] {
+        match node.map_or(0, |i| nodes[i].children[k]) {
+            0 if child.depth < refine_to => {
+                sums = [sums[k]; 4];
+                node = None;
+                cell = child;
+            }
             0 => {
                 return Some(Descended {
                     point: cell_point(child, u),
@@ -180,7 +229,8 @@ pub fn sample_descend<W: ChildWeights>(
                 });
             }
             c => {
-                idx = c as usize;
+                node = Some(c as usize);
+                sums = nodes[c as usize].sums;
                 cell = child;
             }
         }
@@ -194,28 +244,81 @@ pub fn pdf_descend<W: ChildWeights>(tree: &QuadTree, weights: &mut W, p: Vec2) -
         return (0.0, 0.0);
     }
     let nodes = tree.nodes();
-    let mut idx = 0usize;
+    let Some(first) = nodes.first() else {
+        return (0.0, 0.0);
+    };
+    let refine_to = weights.refine_below_leaves_to();
+    let mut node = Some(0usize);
+    let mut sums = first.sums;
     let mut cell = Cell::ROOT;
     let mut pdf = 1.0f32;
     let mut root_total = 0.0;
     loop {
-        let node = &nodes[idx];
-        let Some((w, total, reported)) = resolve(weights, cell, node.sums) else {
+        let Some((w, total, reported)) = resolve(weights, cell, sums) else {
             return (0.0, 0.0);
         };
         if cell.depth == 0 {
             root_total = reported;
+        }
+        if node.is_none() && (nearly_uniform(w) || cell_mass(pdf, cell) < VIRTUAL_MIN_MASS) {
+            return (pdf, root_total);
         }
         let k = child_slot(cell, p);
         if w[k] == 0.0 {
             return (0.0, root_total);
         }
         pdf = step_pdf(pdf, w[k], total);
-        match node.children[k] {
+        let child = cell.child(k);
+        match node.map_or(0, |i| nodes[i].children[k]) {
+            0 if child.depth < refine_to => {
+                sums = [sums[k]; 4];
+                node = None;
+                cell = child;
+            }
             0 => return (pdf, root_total),
             c => {
-                idx = c as usize;
-                cell = cell.child(k);
+                node = Some(c as usize);
+                sums = nodes[c as usize].sums;
+                cell = child;
+            }
+        }
+    }
+}
+
+/// Calls `f(cell, probability)` for every terminal cell of the
+/// distribution (a leaf of the tree, or where the descent stops below one),
+/// with the probability that `sample` ends there. The probabilities sum to 1
+/// (or the root is unusable and nothing is reported). For tests: the exact
+/// bin probabilities of a χ² test, and normalisation.
+pub fn for_each_terminal_cell<W: ChildWeights>(
+    tree: &QuadTree,
+    weights: &mut W,
+    mut f: impl FnMut(Cell, f64),
+) {
+    let nodes = tree.nodes();
+    let Some(first) = nodes.first() else { return };
+    let refine_to = weights.refine_below_leaves_to();
+    // (node, sums, cell, pdf so far)
+    let mut stack: Vec<(Option<usize>, [f32; 4], Cell, f32)> =
+        vec![(Some(0), first.sums, Cell::ROOT, 1.0)];
+    while let Some((node, sums, cell, pdf)) = stack.pop() {
+        let Some((w, total, _)) = resolve(weights, cell, sums) else {
+            continue;
+        };
+        if node.is_none() && (nearly_uniform(w) || cell_mass(pdf, cell) < VIRTUAL_MIN_MASS) {
+            f(cell, cell_mass(pdf, cell) as f64);
+            continue;
+        }
+        for k in 0..4 {
+            if w[k] == 0.0 {
+                continue;
+            }
+            let child_pdf = step_pdf(pdf, w[k], total);
+            let child = cell.child(k);
+            match node.map_or(0, |i| nodes[i].children[k]) {
+                0 if child.depth < refine_to => stack.push((None, [sums[k]; 4], child, child_pdf)),
+                0 => f(child, cell_mass(child_pdf, child) as f64),
+                c => stack.push((Some(c as usize), nodes[c as usize].sums, child, child_pdf)),
             }
         }
     }

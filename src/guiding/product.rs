@@ -50,6 +50,13 @@ impl ChildWeights for ProductWeights {
             ProductWeights::RadianceOnly { .. } => radiance,
         }
     }
+
+    fn refine_below_leaves_to(&self) -> u32 {
+        match self {
+            ProductWeights::Product { .. } => crate::guiding::quadtree::MAX_DEPTH,
+            ProductWeights::RadianceOnly { .. } => 0,
+        }
+    }
 }
 
 impl WeightModel for ProductModel<'_> {

@@ -92,6 +92,39 @@ pub fn chi2_square(
     finish(cfg, &observed, &expected, invalid)
 }
 
+/// Runs the test on the unit square with known bin probabilities
+/// (`expected[iy * res_x + ix]`, summing to at most 1), for densities whose
+/// structure allows exact integration (e.g. piecewise-constant quadtrees
+/// with cells far smaller than a quadrature rule could resolve).
+pub fn chi2_square_expected(
+    cfg: &Chi2Config,
+    mut sample: impl FnMut() -> Option<Vec2>,
+    expected: &[f64],
+) -> Chi2Outcome {
+    let (rx, ry) = (cfg.res_x, cfg.res_y);
+    assert_eq!(expected.len(), rx * ry);
+    let mut observed = vec![0f64; rx * ry];
+    let mut invalid = 0usize;
+    for _ in 0..cfg.samples {
+        match sample() {
+            Some(p)
+                if p.x.is_finite()
+                    && p.y.is_finite()
+                    && (0.0..=1.0).contains(&p.x)
+                    && (0.0..=1.0).contains(&p.y) =>
+            {
+                let ix = ((p.x * rx as f32) as usize).min(rx - 1);
+                let iy = ((p.y * ry as f32) as usize).min(ry - 1);
+                observed[iy * rx + ix] += 1.0;
+            }
+            Some(_) => invalid += 1,
+            None => {}
+        }
+    }
+    let expected: Vec<f64> = expected.iter().map(|p| p * cfg.samples as f64).collect();
+    finish(cfg, &observed, &expected, invalid)
+}
+
 fn finish(cfg: &Chi2Config, observed: &[f64], expected: &[f64], invalid: usize) -> Chi2Outcome {
     let pdf_integral = expected.iter().sum::<f64>() / cfg.samples as f64;
     let mut order: Vec<usize> = (0..expected.len()).collect();
