@@ -12,6 +12,7 @@ pub mod guiding;
 pub mod integrator;
 pub mod ltc;
 pub mod math;
+pub mod plan;
 pub mod render;
 pub mod sampling;
 pub mod scene;

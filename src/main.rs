@@ -248,6 +248,10 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create '{}': {e}", dir.display()))?;
     }
+    eprintln!(
+        "{}",
+        ltcguide::plan::plan(&scene, opts.method, opts.path.nee).line()
+    );
     let result = render(&scene, &opts)?;
     write_rgb(
         &args.out,
@@ -258,6 +262,9 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     let png = args.out.with_extension("png");
     write_png(&png, &result.image)?;
     let s = &result.stats;
+    if let Some(g) = s.guiding.as_ref().filter(|g| !g.fallback.is_empty()) {
+        eprintln!("{}", g.fallback);
+    }
     eprintln!(
         "{}: {} spp in {:.2} s ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",
         s.scene,

@@ -194,6 +194,7 @@ pub fn progress_bar(enabled: bool, len: u64, what: &str) -> Option<indicatif::Pr
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
+    let plan = crate::plan::plan(scene, opts.method, opts.path.nee);
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan {
         times: opts.snapshot_times.clone(),
@@ -262,7 +263,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let mean = image.mean_rgb();
     let stats = RenderStats {
         scene: scene.name.clone(),
-        method: opts.method,
+        method: plan.method,
         spp,
         seconds,
         paths_per_second: counters.paths as f64 / seconds.max(1e-9),
@@ -275,7 +276,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         height: image.height,
         counters,
         mean_rgb: mean.to_array(),
-        plan: None,
+        plan: Some(match &guiding {
+            Some(g) if !g.fallback.is_empty() => format!("{} | {}", plan.line(), g.fallback),
+            _ => plan.line(),
+        }),
         guiding,
     };
     Ok(RenderResult {

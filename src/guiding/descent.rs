@@ -42,13 +42,14 @@ pub trait ChildWeights {
     }
 }
 
-/// Below the leaves, the descent stops once the sub-cell weights are this
-/// close to uniform: sampling the cell uniformly is then as good.
-const VIRTUAL_UNIFORM_RATIO: f32 = 1.02;
+/// Below the leaves, the descent stops once the largest sub-cell weight is
+/// within this factor of the smallest: sampling the cell uniformly then
+/// costs little variance, and each further level costs an LTC evaluation.
+const VIRTUAL_UNIFORM_RATIO: f32 = 1.5;
 
 /// Below the leaves, the descent also stops in cells holding less than this
 /// probability: they are rarely visited, and refining them buys nothing.
-const VIRTUAL_MIN_MASS: f32 = 1e-4;
+const VIRTUAL_MIN_MASS: f32 = 1e-3;
 
 /// Probability mass of a cell reached with square-measure pdf `pdf`.
 #[inline]

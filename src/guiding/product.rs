@@ -51,10 +51,14 @@ impl ChildWeights for ProductWeights {
         }
     }
 
+    /// Only glossy lobes vary faster than the radiance tree resolves; a
+    /// cosine lobe is smooth at every leaf size the tree produces.
     fn refine_below_leaves_to(&self) -> u32 {
         match self {
-            ProductWeights::Product { .. } => crate::guiding::quadtree::MAX_DEPTH,
-            ProductWeights::RadianceOnly { .. } => 0,
+            ProductWeights::Product { ltc, .. } if ltc.glossy_count > 0 => {
+                crate::guiding::quadtree::MAX_DEPTH
+            }
+            _ => 0,
         }
     }
 }

@@ -8,6 +8,7 @@ use super::record::{RecordStats, record_pass};
 use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
 use super::sdtree::{SdTree, SdTreeConfig};
 use crate::film::image::{Film, Image};
+use crate::integrator::guide::NoGuide;
 use crate::integrator::path::RouletteMode;
 use crate::integrator::render_pass;
 use crate::integrator::stats::RenderCounters;
@@ -47,6 +48,8 @@ pub struct GuidingStats {
     pub records_rejected_zero_pdf: u64,
     pub adam_steps: u64,
     pub adam_rejected: u64,
+    /// Non-empty when guiding was dropped because it did not pay.
+    pub fallback: String,
 }
 
 pub struct GuidedOutput {
@@ -161,6 +164,31 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
     ))
 }
 
+/// Compares the efficiency (1 / (variance per sample × seconds per sample))
+/// of the last training iteration with that of iteration 0, which samples
+/// the BSDF only (the guide is still empty). Variances are measured about
+/// the pooled mean of all iterations so far, which works at 1 spp. If the
+/// guided iteration is less efficient than the unguided one — recording
+/// overhead included on both sides — guiding does not pay here.
+fn guiding_does_not_pay(
+    films: &[&Film],
+    done: &[IterationSummary],
+    last_seconds: f64,
+) -> Option<String> {
+    let (first, last) = (films.first()?, films.last()?);
+    let first_seconds = done.first()?.seconds;
+    let mu = pooled_mean(films);
+    let per_sample = |f: &Film| iteration_variance(f, &mu).0 * f.spp as f64;
+    let eff = |f: &Film, s: f64| 1.0 / (per_sample(f) * s / f.spp.max(1) as f64);
+    let (e0, e1) = (eff(first, first_seconds), eff(last, last_seconds));
+    (e0.is_finite() && e1.is_finite() && e1 < e0).then(|| {
+        format!(
+            "guiding does not pay here (trained efficiency {:.3e} < unguided {:.3e}): the rest of the budget is rendered unguided",
+            e1, e0
+        )
+    })
+}
+
 /// Renders with an SD-tree guide whose child weights come from `model`.
 pub fn render_guided<M: WeightModel>(
     scene: &Scene,
@@ -181,6 +209,8 @@ pub fn render_guided<M: WeightModel>(
     let mut counters = RenderCounters::default();
     let mut records = RecordStats::default();
     let mut pass = 0u64;
+    // Set when the training iterations show that guiding does not pay.
+    let mut fallback = String::new();
     let total_spp =
         |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
 
@@ -217,25 +247,31 @@ pub fn render_guided<M: WeightModel>(
                 Budget::Seconds(end) if clock.seconds() >= end && film.spp > 0 => break,
                 _ => {}
             }
-            let guide = SdGuide {
-                tree: &tree,
-                model,
-                learning: training,
-                pass,
-                fixed_alpha: opts.bsdf_fraction,
-            };
-            let out = render_pass(
-                scene,
-                &guide,
-                &opts.path,
-                opts.seed,
-                pass,
-                pixel_estimates.as_deref(),
-            );
-            film.merge(&out.film);
-            counters.add(&out.counters);
-            if training {
-                records.merge(&record_pass(&mut tree, &out.recorders));
+            if fallback.is_empty() {
+                let guide = SdGuide {
+                    tree: &tree,
+                    model,
+                    learning: training,
+                    pass,
+                    fixed_alpha: opts.bsdf_fraction,
+                };
+                let out = render_pass(
+                    scene,
+                    &guide,
+                    &opts.path,
+                    opts.seed,
+                    pass,
+                    pixel_estimates.as_deref(),
+                );
+                film.merge(&out.film);
+                counters.add(&out.counters);
+                if training {
+                    records.merge(&record_pass(&mut tree, &out.recorders));
+                }
+            } else {
+                let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass, None);
+                film.merge(&out.film);
+                counters.add(&out.counters);
             }
             pass += 1;
             let now = clock.seconds();
@@ -276,6 +312,13 @@ pub fn render_guided<M: WeightModel>(
                 mean_variance,
             },
         );
+        if training && iteration >= 3 && fallback.is_empty() {
+            let mut all: Vec<&Film> = films.iter().collect();
+            all.push(&film);
+            if let Some(reason) = guiding_does_not_pay(&all, &summaries, seconds) {
+                fallback = reason;
+            }
+        }
         summaries.push(IterationSummary {
             iteration,
             spp: film.spp,
@@ -316,6 +359,7 @@ pub fn render_guided<M: WeightModel>(
         records_rejected_zero_pdf: records.rejected_zero_pdf,
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
+        fallback,
     };
     GuidedOutput {
         image,
