@@ -140,6 +140,37 @@ pub struct RenderOptions {
     pub product_kernel: ProductKernel,
 }
 
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
+pub struct Guards {
+    /// Path contributions that were NaN/Inf/negative (replaced by zero).
+    pub image_nonfinite_samples: u64,
+    /// BSDF or guide samples with unusable pdf or weight (path ended).
+    pub invalid_scattering: u64,
+    /// Learning records rejected before they could reach the SD-tree.
+    pub tree_records_non_finite: u64,
+    pub tree_records_negative: u64,
+    pub tree_records_zero_pdf: u64,
+    /// Adam steps rejected (non-finite gradient, vanishing mixture pdf).
+    pub optimizer_rejected: u64,
+    /// ADRRS decisions without usable estimates (no roulette played).
+    pub adrrs_invalid_estimate: u64,
+    /// Non-finite LTC inputs or outputs zeroed.
+    pub ltc_nonfinite: u64,
+}
+
+impl Guards {
+    pub fn total(&self) -> u64 {
+        self.image_nonfinite_samples
+            + self.invalid_scattering
+            + self.tree_records_non_finite
+            + self.tree_records_negative
+            + self.tree_records_zero_pdf
+            + self.optimizer_rejected
+            + self.adrrs_invalid_estimate
+            + self.ltc_nonfinite
+    }
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
     pub scene: String,
@@ -156,6 +187,9 @@ pub struct RenderStats {
     pub height: usize,
     pub counters: RenderCounters,
     pub mean_rgb: [f32; 3],
+    /// Every non-finite or degenerate-value guard that fired, by place. A
+    /// render of a normal scene reports zeros.
+    pub guards: Guards,
     /// The per-scene plan: which machinery this run uses (one line).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plan: Option<String>,
@@ -195,6 +229,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = crate::plan::plan(scene, opts.method, opts.path.nee);
+    let ltc_guards_before = crate::ltc::nonfinite_guard_count();
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan {
         times: opts.snapshot_times.clone(),
@@ -261,6 +296,19 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     }
     let seconds = clock.seconds();
     let mean = image.mean_rgb();
+    let guards = Guards {
+        image_nonfinite_samples: counters.nonfinite_samples,
+        invalid_scattering: counters.invalid_scattering,
+        tree_records_non_finite: guiding
+            .as_ref()
+            .map_or(0, |g| g.records_rejected_non_finite),
+        tree_records_negative: guiding.as_ref().map_or(0, |g| g.records_rejected_negative),
+        tree_records_zero_pdf: guiding.as_ref().map_or(0, |g| g.records_rejected_zero_pdf),
+        optimizer_rejected: guiding.as_ref().map_or(0, |g| g.adam_rejected),
+        adrrs_invalid_estimate: counters.adrrs.invalid_estimate,
+        // Process-wide counter: concurrent renders in one process share it.
+        ltc_nonfinite: crate::ltc::nonfinite_guard_count() - ltc_guards_before,
+    };
     let stats = RenderStats {
         scene: scene.name.clone(),
         method: plan.method,
@@ -276,6 +324,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         height: image.height,
         counters,
         mean_rgb: mean.to_array(),
+        guards,
         plan: Some(match &guiding {
             Some(g) if !g.fallback.is_empty() => format!("{} | {}", plan.line(), g.fallback),
             _ => plan.line(),
