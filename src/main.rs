@@ -29,6 +29,14 @@ enum Command {
     Info { scene: PathBuf },
     /// Equal-time comparison of methods: error-versus-time curves, summary and images.
     Compare(CompareArgs),
+    /// The paper's Table 1: cost of N spp per product kernel (naive, optimized, simd), and what the per-scene plan saves.
+    Ablation {
+        scene: PathBuf,
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
     /// Fit the LTC table to GGX·cos (Heitz et al. 2016) and write it with its error summary.
     FitLtc {
         /// Output directory (the committed table lives in data/).
@@ -154,6 +162,11 @@ fn main() -> ExitCode {
         Command::Error { image, reference } => cmd_error(&image, &reference),
         Command::Info { scene } => cmd_info(&scene),
         Command::Compare(args) => cmd_compare(&args),
+        Command::Ablation {
+            scene,
+            spp,
+            threads,
+        } => cmd_ablation(&scene, spp, threads),
         Command::FitLtc {
             out,
             resolution,
@@ -227,6 +240,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
+        use_plan: true,
     };
     if let Some(a) = args.bsdf_fraction {
         if !(0.0..=1.0).contains(&a) {
@@ -350,6 +364,17 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;
     println!("{}", outcome.summary);
+    Ok(())
+}
+
+fn cmd_ablation(path: &Path, spp: u32, threads: usize) -> Result<(), String> {
+    if spp == 0 {
+        return Err("--spp must be at least 1".into());
+    }
+    let scene = load(path)?;
+    let settings = default_path_settings(&scene, Method::Product);
+    let out = ltcguide::experiment::ablation::run_ablation(&scene, spp, threads, settings, true)?;
+    println!("{}", out.markdown);
     Ok(())
 }
 

@@ -138,6 +138,9 @@ pub struct RenderOptions {
     pub bsdf_fraction: Option<f32>,
     /// Product guiding: which child-integral implementation.
     pub product_kernel: ProductKernel,
+    /// Follow the per-scene plan (and drop guiding where it does not pay).
+    /// Off only for measuring what the plan saves.
+    pub use_plan: bool,
 }
 
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
@@ -228,7 +231,12 @@ pub fn progress_bar(enabled: bool, len: u64, what: &str) -> Option<indicatif::Pr
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
-    let plan = crate::plan::plan(scene, opts.method, opts.path.nee);
+    let mut plan = crate::plan::plan(scene, opts.method, opts.path.nee);
+    if !opts.use_plan {
+        plan.method = opts.method;
+        plan.guiding = opts.method != Method::Pt;
+        plan.reasons = vec!["plan disabled".into()];
+    }
     let ltc_guards_before = crate::ltc::nonfinite_guard_count();
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan {

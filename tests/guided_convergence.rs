@@ -33,6 +33,7 @@ fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool
         snapshot_times: Vec::new(),
         bsdf_fraction: None,
         product_kernel: Default::default(),
+        use_plan: true,
     };
     let guided = render(&scene, &opts).expect("render");
     let c = guided.stats.counters;
@@ -149,6 +150,7 @@ fn a_fixed_seed_gives_a_fixed_image_whatever_the_thread_count() {
                 snapshot_times: Vec::new(),
                 bsdf_fraction: None,
                 product_kernel: Default::default(),
+                use_plan: true,
             };
             render(&scene, &opts).unwrap().image.pixels
         };

@@ -331,6 +331,7 @@ fn stiff_scene_renders_finite_and_methods_agree() {
             snapshot_times: Vec::new(),
             bsdf_fraction: None,
             product_kernel: ProductKernel::Simd,
+            use_plan: true,
         };
         render(&scene, &opts).unwrap()
     };

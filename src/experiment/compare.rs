@@ -83,6 +83,7 @@ pub fn run_compare(
                 snapshot_times: snapshot_times(opts.seconds),
                 bsdf_fraction: None,
                 product_kernel: Default::default(),
+                use_plan: true,
             };
             let result = render(scene, &ropts)?;
             for s in &result.snapshots {

@@ -1,6 +1,7 @@
 //! Experiments: equal-time comparisons with error against run time, their
 //! plots and summaries.
 
+pub mod ablation;
 pub mod colormap;
 pub mod compare;
 pub mod curves;

@@ -312,7 +312,7 @@ pub fn render_guided<M: WeightModel>(
                 mean_variance,
             },
         );
-        if training && iteration >= 3 && fallback.is_empty() {
+        if opts.use_plan && training && iteration >= 3 && fallback.is_empty() {
             let mut all: Vec<&Film> = films.iter().collect();
             all.push(&film);
             if let Some(reason) = guiding_does_not_pay(&all, &summaries, seconds) {

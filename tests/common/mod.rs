@@ -61,6 +61,7 @@ pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool)
         snapshot_times: Vec::new(),
         bsdf_fraction: None,
         product_kernel: Default::default(),
+        use_plan: true,
     };
     render(scene, &opts).expect("render")
 }

@@ -1,0 +1,125 @@
+//! `ltcguide ablation`: the paper's Table 1 — the cost of a fixed number of
+//! samples per pixel for each product kernel, as a percentage of the naive
+//! one — and what the per-scene plan saves.
+
+use crate::integrator::path::PathSettings;
+use crate::ltc::ProductKernel;
+use crate::render::{Budget, Method, RenderOptions, render};
+use crate::scene::Scene;
+use std::fmt::Write;
+
+#[derive(Clone, Debug)]
+pub struct AblationRow {
+    pub variant: String,
+    pub seconds: f64,
+    pub spp: u32,
+    pub paths_per_second: f64,
+}
+
+pub struct AblationOutcome {
+    pub kernels: Vec<AblationRow>,
+    pub plan: Vec<AblationRow>,
+    pub plan_line: String,
+    pub markdown: String,
+}
+
+fn kernel_name(k: ProductKernel) -> &'static str {
+    match k {
+        ProductKernel::Naive => "naive",
+        ProductKernel::Optimized => "optimized",
+        ProductKernel::Simd => "simd",
+    }
+}
+
+pub fn run_ablation(
+    scene: &Scene,
+    spp: u32,
+    threads: usize,
+    path: PathSettings,
+    progress: bool,
+) -> Result<AblationOutcome, String> {
+    let run =
+        |method: Method, kernel: ProductKernel, use_plan: bool| -> Result<AblationRow, String> {
+            let opts = RenderOptions {
+                method,
+                budget: Budget::Spp(spp),
+                seed: 1,
+                threads,
+                path,
+                progress,
+                snapshot_times: Vec::new(),
+                bsdf_fraction: None,
+                product_kernel: kernel,
+                use_plan,
+            };
+            let r = render(scene, &opts)?;
+            Ok(AblationRow {
+                variant: String::new(),
+                seconds: r.stats.seconds,
+                spp: r.stats.spp,
+                paths_per_second: r.stats.paths_per_second,
+            })
+        };
+    let mut kernels = Vec::new();
+    for k in [
+        ProductKernel::Naive,
+        ProductKernel::Optimized,
+        ProductKernel::Simd,
+    ] {
+        if progress {
+            eprintln!("ablation: product, {} kernel, {spp} spp", kernel_name(k));
+        }
+        let mut row = run(Method::Product, k, true)?;
+        row.variant = kernel_name(k).to_string();
+        kernels.push(row);
+    }
+    let mut plan = Vec::new();
+    for (name, use_plan) in [
+        ("product, per-scene plan", true),
+        ("product, plan disabled", false),
+    ] {
+        if progress {
+            eprintln!("ablation: {name}, {spp} spp");
+        }
+        let mut row = run(Method::Product, ProductKernel::Simd, use_plan)?;
+        row.variant = name.to_string();
+        plan.push(row);
+    }
+    let plan_line = crate::plan::plan(scene, Method::Product, path.nee).line();
+    let naive = kernels[0].seconds.max(1e-9);
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "| kernel | seconds for {spp} spp | % of naive | paths/s |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|");
+    for r in &kernels {
+        let _ = writeln!(
+            md,
+            "| {} | {:.2} | {:.0} % | {:.0} |",
+            r.variant,
+            r.seconds,
+            100.0 * r.seconds / naive,
+            r.paths_per_second
+        );
+    }
+    let _ = writeln!(md, "\n`{plan_line}`\n");
+    let _ = writeln!(md, "| run | seconds for {spp} spp | saving |");
+    let _ = writeln!(md, "|---|---|---|");
+    let without = plan[1].seconds.max(1e-9);
+    for r in &plan {
+        let _ = writeln!(
+            md,
+            "| {} | {:.2} | {:.0} % |",
+            r.variant,
+            r.seconds,
+            100.0 * (1.0 - r.seconds / without)
+        );
+    }
+    Ok(AblationOutcome {
+        kernels,
+        plan,
+        plan_line,
+        markdown: md,
+    })
+}

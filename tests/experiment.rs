@@ -1,0 +1,154 @@
+//! `compare` on a tiny scene with a tiny budget writes well-formed files,
+//! and refuses a reference of the wrong size.
+
+use ltcguide::experiment::compare::{CompareOptions, run_compare};
+use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
+use ltcguide::film::exr_io::write_rgb;
+use ltcguide::film::image::Image;
+use ltcguide::integrator::path::{PathSettings, RouletteMode};
+use ltcguide::render::{Budget, Method, RenderOptions, render};
+use ltcguide::scene::{Scene, load_scene};
+use std::path::Path;
+
+fn settings(scene: &Scene, method: Method) -> PathSettings {
+    PathSettings {
+        nee: method == Method::Pt,
+        max_depth: scene.max_depth,
+        roulette: if method == Method::Pt {
+            RouletteMode::Classic
+        } else {
+            RouletteMode::Adrrs
+        },
+    }
+}
+
+fn tiny() -> Scene {
+    load_scene(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/analytic/sphere_over_plane.xml"),
+    )
+    .unwrap()
+}
+
+#[test]
+fn compare_writes_well_formed_csv_svg_and_summary() {
+    let scene = tiny();
+    let reference = render(
+        &scene,
+        &RenderOptions {
+            method: Method::Pt,
+            budget: Budget::Spp(256),
+            seed: 77,
+            threads: 0,
+            path: settings(&scene, Method::Pt),
+            progress: false,
+            snapshot_times: Vec::new(),
+            bsdf_fraction: None,
+            product_kernel: Default::default(),
+            use_plan: true,
+        },
+    )
+    .unwrap()
+    .image;
+    let dir = std::env::temp_dir().join(format!("ltcguide-compare-{}", std::process::id()));
+    let methods = vec![Method::Pt, Method::Radiance, Method::Product];
+    let opts = CompareOptions {
+        methods: methods.clone(),
+        seconds: 0.6,
+        runs: 2,
+        threads: 0,
+        out_dir: dir.clone(),
+        path_for: settings,
+        progress: false,
+    };
+    let outcome = run_compare(&scene, &reference, &opts).unwrap();
+    let csv = std::fs::read_to_string(dir.join("curves.csv")).unwrap();
+    assert!(csv.starts_with(CSV_HEADER));
+    let rows = parse_csv(&csv).unwrap();
+    assert_eq!(rows.len(), outcome.rows.len());
+    for (a, b) in rows.iter().zip(&outcome.rows) {
+        assert_eq!((&a.method, a.run, a.spp), (&b.method, b.run, b.spp));
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-6 * y.abs().max(1e-9);
+        assert!(
+            close(a.mae, b.mae)
+                && close(a.relmse, b.relmse)
+                && (a.seconds - b.seconds).abs() < 1e-5
+        );
+    }
+    for m in ["pt", "radiance", "product"] {
+        for run in 0..2 {
+            let r: Vec<_> = rows
+                .iter()
+                .filter(|r| r.method == m && r.run == run)
+                .collect();
+            assert!(r.len() >= 2, "{m} run {run}: {} snapshots", r.len());
+            assert!(
+                r.windows(2).all(|w| w[0].seconds <= w[1].seconds),
+                "{m}: times not increasing"
+            );
+            assert!(
+                r.iter()
+                    .all(|x| x.mae.is_finite() && x.relmse.is_finite() && x.mae >= 0.0)
+            );
+            // The error falls as samples accumulate (first vs last snapshot).
+            assert!(r.last().unwrap().mae < r[0].mae * 1.5, "{m}: error grew");
+        }
+        for suffix in [".exr", ".png", "-error.png"] {
+            assert!(
+                dir.join(format!("{m}{suffix}")).exists(),
+                "{m}{suffix} missing"
+            );
+        }
+    }
+    let svg = std::fs::read_to_string(dir.join("curves.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains("relMSE") && svg.contains("MAE"));
+    let summary = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    assert!(summary.contains("| product |") && summary.contains("Time-to-error speedup"));
+    assert!(summary.contains("threads"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn compare_refuses_a_reference_of_the_wrong_size() {
+    let scene = tiny();
+    let dir = std::env::temp_dir().join(format!("ltcguide-compare-bad-{}", std::process::id()));
+    let opts = CompareOptions {
+        methods: vec![Method::Pt],
+        seconds: 0.1,
+        runs: 1,
+        threads: 0,
+        out_dir: dir.clone(),
+        path_for: settings,
+        progress: false,
+    };
+    let wrong = Image {
+        width: 10,
+        height: 10,
+        pixels: vec![glam::Vec3::ZERO; 100],
+    };
+    let err = run_compare(&scene, &wrong, &opts)
+        .err()
+        .expect("must refuse");
+    assert!(err.contains("10×10") && err.contains("64×64"), "{err}");
+    // And through the CLI: exit code 2, one error line.
+    std::fs::create_dir_all(&dir).unwrap();
+    let reference = dir.join("wrong.exr");
+    write_rgb(&reference, 10, 10, &wrong.pixels).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args([
+            "compare",
+            "tests/data/analytic/sphere_over_plane.xml",
+            "--time",
+            "0.1",
+            "--reference",
+        ])
+        .arg(&reference)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("reference is 10×10"));
+    std::fs::remove_dir_all(&dir).ok();
+}
