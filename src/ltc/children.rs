@@ -34,8 +34,9 @@
 use super::children_x16;
 use super::form_factor;
 use super::polygon::{
-    cell_integral_reference, cell_polygon_f32, clipped_edge_sum_z, edge_vector,
+    MAX_CACHED_POLYGON, cell_integral_reference, clipped_edge_sum_z, edge_vector,
     is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
+    transformed_cached_polygon,
 };
 use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
@@ -222,20 +223,17 @@ impl GlossyLtc {
         let (f, sides) = if is_plain_quad_depth(depth) {
             self.children_edge_sums_grid(cell)
         } else {
-            let mut poly = Vec::with_capacity(80);
-            let mut scratch = Vec::with_capacity(96);
+            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let mut sides = [HorizonSide::Above; 4];
             let mut exact = [0.0f32; 4];
             let f = std::array::from_fn(|k| {
-                cell_polygon_f32(cell.child(k), &mut poly);
-                for v in poly.iter_mut() {
-                    *v = transform_rows(&self.rows, *v);
-                }
-                sides[k] = HorizonSide::of_vertices(&poly);
+                let n = transformed_cached_polygon(cell.child(k), &self.rows, &mut buf);
+                let poly = &buf[..n];
+                sides[k] = HorizonSide::of_vertices(poly);
                 if sides[k] == HorizonSide::Crossing {
-                    exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+                    exact[k] = clipped_edge_sum_z(poly);
                 }
-                polygon_edge_sum(&poly)
+                polygon_edge_sum(poly)
             });
             return self.finish_children(cell, f, sides, Some(exact));
         };
@@ -333,15 +331,11 @@ impl GlossyLtc {
 
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
 pub fn exact_children_f32(rows: &[[f32; 3]; 3], orientation: f32, cell: Cell) -> [f32; 4] {
-    let mut poly = Vec::with_capacity(80);
-    let mut scratch = Vec::with_capacity(96);
+    let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
     let scale = orientation * (0.5 / PI);
     std::array::from_fn(|k| {
-        cell_polygon_f32(cell.child(k), &mut poly);
-        for v in poly.iter_mut() {
-            *v = transform_rows(rows, *v);
-        }
-        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
+        let n = transformed_cached_polygon(cell.child(k), rows, &mut buf);
+        (clipped_edge_sum_z(&buf[..n]) * scale).max(0.0)
     })
 }
 
@@ -548,21 +542,16 @@ impl ShadingLtc {
         }
         if cell.depth < EXACT_CROSSING_DEPTH {
             // Large cells: classify by the polygon, clip straddlers exactly.
-            let mut poly = Vec::with_capacity(40);
-            let mut scratch = Vec::with_capacity(48);
+            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let scale = self.diffuse_orientation * (0.5 / PI);
             return std::array::from_fn(|k| {
                 let child = cell.child(k);
-                cell_polygon_f32(child, &mut poly);
-                for v in poly.iter_mut() {
-                    *v = transform_rows(&self.diffuse_rows, *v);
-                }
-                match HorizonSide::of_vertices(&poly) {
+                let n = transformed_cached_polygon(child, &self.diffuse_rows, &mut buf);
+                let poly = &buf[..n];
+                match HorizonSide::of_vertices(poly) {
                     HorizonSide::Above => form_factor::form_factor(child).dot(self.normal).max(0.0),
                     HorizonSide::Below => 0.0,
-                    HorizonSide::Crossing => {
-                        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
-                    }
+                    HorizonSide::Crossing => (clipped_edge_sum_z(poly) * scale).max(0.0),
                 }
             });
         }

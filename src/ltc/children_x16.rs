@@ -10,7 +10,9 @@
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
-use super::polygon::{ATAN_COEFFS, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth};
+use super::polygon::{
+    ATAN_COEFFS, MAX_CACHED_POLYGON, cached_cell_polygon, clipped_edge_sum_z, is_plain_quad_depth,
+};
 use crate::directional::Cell;
 use glam::Vec3;
 use wide::f32x16;
@@ -131,6 +133,27 @@ fn edge_vectors(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
     [cx * k, cy * k, cz * k]
 }
 
+#[inline(always)]
+fn load16(a: &[f32], i: usize) -> f32x16 {
+    f32x16::from(<[f32; 16]>::try_from(&a[i..i + 16]).unwrap())
+}
+
+/// Σ_{j<m} (θ·(a×b)/|a×b|)_z over the edges (P[j], P[j+1]) of a closed
+/// polygon in structure-of-arrays form (P[m] = P[0]), 16 edges at a time.
+/// Entries past m must be zero (they contribute exactly 0) and each array
+/// must hold at least 16 entries past m − 1.
+pub fn edge_sum_z_soa(x: &[f32], y: &[f32], z: &[f32], m: usize) -> f32 {
+    let mut acc = splat(0.0);
+    let mut j = 0;
+    while j < m {
+        let a = [load16(x, j), load16(y, j), load16(z, j)];
+        let b = [load16(x, j + 1), load16(y, j + 1), load16(z, j + 1)];
+        acc += edge_vectors(a, b)[2];
+        j += 16;
+    }
+    acc.reduce_add()
+}
+
 /// World points of the corner grid for lane indices (zi, vi).
 #[inline(always)]
 fn grid_points(u: f32, w: f32, h: f32, zi: f32x16, vi: f32x16) -> [f32x16; 3] {
@@ -233,12 +256,11 @@ pub fn children_edge_sums_batched(
     g: &GlossyLtc,
     cell: Cell,
 ) -> ([Vec3; 4], [HorizonSide; 4], [f32; 4]) {
-    let mut poly = Vec::with_capacity(40);
     let mut p = [[0.0f32; MAX_POINTS]; 3];
     let mut start = [0usize; 5];
     let mut len = 0;
     for (k, s) in start.iter_mut().take(4).enumerate() {
-        cell_polygon_f32(cell.child(k), &mut poly);
+        let poly = cached_cell_polygon(cell.child(k)).expect("coarse cell");
         *s = len;
         for v in poly.iter().chain(std::iter::once(&poly[0])) {
             if len < MAX_POINTS - 17 {
@@ -282,7 +304,7 @@ pub fn children_edge_sums_batched(
     }
     let mut sides = [HorizonSide::Above; 4];
     let mut exact = [0.0f32; 4];
-    let mut scratch = Vec::with_capacity(96);
+    let mut poly = [Vec3::ZERO; MAX_CACHED_POLYGON];
     for k in 0..4 {
         let (lo, hi) = (start[k], start[k + 1] - 1);
         let zs = &t[2][lo..hi];
@@ -294,9 +316,11 @@ pub fn children_edge_sums_batched(
             HorizonSide::Crossing
         };
         if sides[k] == HorizonSide::Crossing {
-            poly.clear();
-            poly.extend((lo..hi).map(|i| Vec3::new(t[0][i], t[1][i], t[2][i])));
-            exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+            let n = (hi - lo).min(MAX_CACHED_POLYGON);
+            for (q, i) in poly.iter_mut().zip(lo..lo + n) {
+                *q = Vec3::new(t[0][i], t[1][i], t[2][i]);
+            }
+            exact[k] = clipped_edge_sum_z(&poly[..n]);
         }
     }
     (sums, sides, exact)

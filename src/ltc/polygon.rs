@@ -335,40 +335,93 @@ fn polygon_cache() -> &'static PolygonCache {
 /// coarse levels come from a table built once, since their many chords
 /// would otherwise cost a sincos each on every call.
 pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
-    if cell.depth <= CACHED_POLYGON_DEPTH {
-        let c = polygon_cache();
-        let n = 1usize << cell.depth;
-        let index =
-            ((1usize << (2 * cell.depth)) - 1) / 3 + cell.iy as usize * n + cell.ix as usize;
+    if let Some(p) = cached_cell_polygon(cell) {
         out.clear();
-        out.extend_from_slice(&c.verts[c.offsets[index] as usize..c.offsets[index + 1] as usize]);
+        out.extend_from_slice(p);
     } else {
         build_cell_polygon_f32(cell, out);
     }
 }
 
+/// Most vertices of a cached (depth ≤ [`CACHED_POLYGON_DEPTH`]) polygon.
+pub const MAX_CACHED_POLYGON: usize = 40;
+
+/// The tabulated chord polygon of a cell at depth ≤ [`CACHED_POLYGON_DEPTH`]
+/// (no copy, no allocation); `None` deeper.
+#[inline]
+pub fn cached_cell_polygon(cell: Cell) -> Option<&'static [Vec3]> {
+    if cell.depth > CACHED_POLYGON_DEPTH {
+        return None;
+    }
+    let c = polygon_cache();
+    let n = 1usize << cell.depth;
+    let index = ((1usize << (2 * cell.depth)) - 1) / 3 + cell.iy as usize * n + cell.ix as usize;
+    let p = &c.verts[c.offsets[index] as usize..c.offsets[index + 1] as usize];
+    debug_assert!(p.len() <= MAX_CACHED_POLYGON);
+    Some(p)
+}
+
+/// The tabulated polygon of a coarse cell mapped through `rows` into a
+/// stack buffer; returns the vertex count.
+#[inline]
+pub fn transformed_cached_polygon(
+    cell: Cell,
+    rows: &[[f32; 3]; 3],
+    out: &mut [Vec3; MAX_CACHED_POLYGON],
+) -> usize {
+    let p = cached_cell_polygon(cell).expect("coarse cell");
+    let n = p.len().min(MAX_CACHED_POLYGON);
+    for (o, v) in out.iter_mut().zip(&p[..n]) {
+        *o = transform_rows(rows, *v);
+    }
+    n
+}
+
+/// Room for a clipped polygon (a clip adds at most one vertex per edge)
+/// plus one batch of zero padding for the 16-wide edge sum.
+const CLIP_CAPACITY: usize = 2 * MAX_CACHED_POLYGON + 2 + 16;
+
 /// 2π·F_z of the polygon clipped exactly at z = 0, in f32 (for the large
-/// polygons of coarse levels, where f32 has precision to spare).
-pub fn clipped_edge_sum_z(verts: &[Vec3], scratch: &mut Vec<Vec3>) -> f32 {
-    scratch.clear();
+/// polygons of coarse levels, where f32 has precision to spare). The
+/// clipped polygon is laid out in structure-of-arrays form and its edges
+/// summed 16 at a time ([`super::children_x16::edge_sum_z_soa`]); both the
+/// scalar and the wide kernels call this one function. No allocation.
+pub fn clipped_edge_sum_z(verts: &[Vec3]) -> f32 {
+    let mut x = [0.0f32; CLIP_CAPACITY];
+    let mut y = [0.0f32; CLIP_CAPACITY];
+    let mut z = [0.0f32; CLIP_CAPACITY];
+    let mut m = 0usize;
+    let limit = CLIP_CAPACITY - 17;
+    let mut push = |p: Vec3, m: &mut usize| {
+        if *m < limit {
+            x[*m] = p.x;
+            y[*m] = p.y;
+            z[*m] = p.z;
+            *m += 1;
+        }
+    };
     let n = verts.len();
     for i in 0..n {
         let a = verts[i];
-        let b = verts[(i + 1) % n];
+        let b = verts[if i + 1 == n { 0 } else { i + 1 }];
         if a.z >= 0.0 {
-            scratch.push(a);
+            push(a, &mut m);
         }
         if (a.z >= 0.0) != (b.z >= 0.0) {
             let t = a.z / (a.z - b.z);
             let mut p = a + (b - a) * t;
             p.z = 0.0;
-            scratch.push(p);
+            push(p, &mut m);
         }
     }
-    if scratch.len() < 3 {
+    if m < 3 {
         return 0.0;
     }
-    polygon_edge_sum(scratch).z
+    // Close the polygon; lanes past it stay zero and contribute exactly 0.
+    x[m] = x[0];
+    y[m] = y[0];
+    z[m] = z[0];
+    super::children_x16::edge_sum_z_soa(&x, &y, &z, m)
 }
 
 /// Unclipped F (times 2π) of a polygon whose vertices are already in cosine
