@@ -11,7 +11,7 @@
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
 use super::polygon::{
-    ATAN_COEFFS, MAX_CACHED_POLYGON, cached_cell_polygon, clipped_edge_sum_z, is_plain_quad_depth,
+    ATAN_COEFFS, cached_cell_polygon, clipped_sum_z_from_edges, is_plain_quad_depth,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -138,20 +138,18 @@ fn load16(a: &[f32], i: usize) -> f32x16 {
     f32x16::from(<[f32; 16]>::try_from(&a[i..i + 16]).unwrap())
 }
 
-/// Σ_{j<m} (θ·(a×b)/|a×b|)_z over the edges (P[j], P[j+1]) of a closed
-/// polygon in structure-of-arrays form (P[m] = P[0]), 16 edges at a time.
-/// Entries past m must be zero (they contribute exactly 0) and each array
-/// must hold at least 16 entries past m − 1.
-pub fn edge_sum_z_soa(x: &[f32], y: &[f32], z: &[f32], m: usize) -> f32 {
-    let mut acc = splat(0.0);
+/// `ez[j]` = (θ·(a×b)/|a×b|)_z of the edge (P[j], P[j+1]), j < m, of a
+/// polygon in structure-of-arrays form, 16 edges at a time, with the scalar
+/// [`super::polygon::edge_vector`]'s operations. The arrays must hold at
+/// least 16 entries past m − 1 (`ez` too).
+pub fn edge_z_soa(x: &[f32], y: &[f32], z: &[f32], m: usize, ez: &mut [f32]) {
     let mut j = 0;
     while j < m {
         let a = [load16(x, j), load16(y, j), load16(z, j)];
         let b = [load16(x, j + 1), load16(y, j + 1), load16(z, j + 1)];
-        acc += edge_vectors(a, b)[2];
+        ez[j..j + 16].copy_from_slice(&edge_vectors(a, b)[2].to_array());
         j += 16;
     }
-    acc.reduce_add()
 }
 
 /// World points of the corner grid for lane indices (zi, vi).
@@ -286,12 +284,14 @@ pub fn children_edge_sums_batched(
         i += 16;
     }
     let mut sums = [Vec3::ZERO; 4];
+    let mut ez = [0.0f32; MAX_POINTS];
     let mut j = 0;
     while j + 1 < len {
         let a = [load(&t[0], j), load(&t[1], j), load(&t[2], j)];
         let b = [load(&t[0], j + 1), load(&t[1], j + 1), load(&t[2], j + 1)];
         let e = edge_vectors(a, b);
         let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
+        ez[j..j + 16].copy_from_slice(&z);
         for (k, sum) in sums.iter_mut().enumerate() {
             // Edges of child k start at points start[k]..start[k+1]−1.
             let lo = start[k].max(j);
@@ -304,7 +304,6 @@ pub fn children_edge_sums_batched(
     }
     let mut sides = [HorizonSide::Above; 4];
     let mut exact = [0.0f32; 4];
-    let mut poly = [Vec3::ZERO; MAX_CACHED_POLYGON];
     for k in 0..4 {
         let (lo, hi) = (start[k], start[k + 1] - 1);
         let zs = &t[2][lo..hi];
@@ -316,11 +315,8 @@ pub fn children_edge_sums_batched(
             HorizonSide::Crossing
         };
         if sides[k] == HorizonSide::Crossing {
-            let n = (hi - lo).min(MAX_CACHED_POLYGON);
-            for (q, i) in poly.iter_mut().zip(lo..lo + n) {
-                *q = Vec3::new(t[0][i], t[1][i], t[2][i]);
-            }
-            exact[k] = clipped_edge_sum_z(&poly[..n]);
+            exact[k] =
+                clipped_sum_z_from_edges(&t[0][lo..hi], &t[1][lo..hi], &t[2][lo..hi], &ez[lo..hi]);
         }
     }
     (sums, sides, exact)

@@ -377,51 +377,86 @@ pub fn transformed_cached_polygon(
     n
 }
 
-/// Room for a clipped polygon (a clip adds at most one vertex per edge)
-/// plus one batch of zero padding for the 16-wide edge sum.
-const CLIP_CAPACITY: usize = 2 * MAX_CACHED_POLYGON + 2 + 16;
+/// Room for a polygon's edge components plus one batch of zero padding
+/// for the 16-wide edge sum.
+const EDGE_CAPACITY: usize = MAX_CACHED_POLYGON + 1 + 16;
 
 /// 2π·F_z of the polygon clipped exactly at z = 0, in f32 (for the large
-/// polygons of coarse levels, where f32 has precision to spare). The
-/// clipped polygon is laid out in structure-of-arrays form and its edges
-/// summed 16 at a time ([`super::children_x16::edge_sum_z_soa`]); both the
-/// scalar and the wide kernels call this one function. No allocation.
+/// polygons of coarse levels, where f32 has precision to spare): the
+/// unclipped edges' z components 16 at a time
+/// ([`super::children_x16::edge_z_soa`]), then [`clipped_sum_z_from_edges`].
+/// Both the scalar and the wide kernels end up in that one function, so they
+/// agree bit for bit. No allocation; at most [`MAX_CACHED_POLYGON`] vertices.
 pub fn clipped_edge_sum_z(verts: &[Vec3]) -> f32 {
-    let mut x = [0.0f32; CLIP_CAPACITY];
-    let mut y = [0.0f32; CLIP_CAPACITY];
-    let mut z = [0.0f32; CLIP_CAPACITY];
-    let mut m = 0usize;
-    let limit = CLIP_CAPACITY - 17;
-    let mut push = |p: Vec3, m: &mut usize| {
-        if *m < limit {
-            x[*m] = p.x;
-            y[*m] = p.y;
-            z[*m] = p.z;
-            *m += 1;
-        }
-    };
-    let n = verts.len();
-    for i in 0..n {
-        let a = verts[i];
-        let b = verts[if i + 1 == n { 0 } else { i + 1 }];
-        if a.z >= 0.0 {
-            push(a, &mut m);
-        }
-        if (a.z >= 0.0) != (b.z >= 0.0) {
-            let t = a.z / (a.z - b.z);
-            let mut p = a + (b - a) * t;
-            p.z = 0.0;
-            push(p, &mut m);
-        }
+    let n = verts.len().min(MAX_CACHED_POLYGON);
+    let mut x = [0.0f32; EDGE_CAPACITY];
+    let mut y = [0.0f32; EDGE_CAPACITY];
+    let mut z = [0.0f32; EDGE_CAPACITY];
+    for (i, v) in verts[..n].iter().enumerate() {
+        x[i] = v.x;
+        y[i] = v.y;
+        z[i] = v.z;
     }
-    if m < 3 {
+    if n == 0 {
         return 0.0;
     }
-    // Close the polygon; lanes past it stay zero and contribute exactly 0.
-    x[m] = x[0];
-    y[m] = y[0];
-    z[m] = z[0];
-    super::children_x16::edge_sum_z_soa(&x, &y, &z, m)
+    x[n] = x[0];
+    y[n] = y[0];
+    z[n] = z[0];
+    let mut ez = [0.0f32; EDGE_CAPACITY];
+    super::children_x16::edge_z_soa(&x, &y, &z, n, &mut ez);
+    clipped_sum_z_from_edges(&x[..n], &y[..n], &z[..n], &ez[..n])
+}
+
+/// 2π·F_z of a polygon (structure of arrays, not closed) clipped exactly at
+/// z = 0, given `ez[i]`, the z component of its unclipped edge i → i+1.
+///
+/// The Sutherland–Hodgman output, edge by edge: an edge with both ends at
+/// z ≥ 0 survives whole (its `ez` is reused); an edge leaving the upper
+/// half-space keeps its part from its start to the crossing point, one
+/// entering keeps its part from the crossing point on, and each exit point
+/// is joined to the next entry point (cyclically) along the horizon. Only
+/// those few partial and horizon edges are evaluated here (scalar), so the
+/// clip costs a handful of edges instead of a second pass over the polygon.
+pub fn clipped_sum_z_from_edges(x: &[f32], y: &[f32], z: &[f32], ez: &[f32]) -> f32 {
+    let n = ez.len();
+    let v = |i: usize| Vec3::new(x[i], y[i], z[i]);
+    let crossing = |a: Vec3, b: Vec3| {
+        let t = a.z / (a.z - b.z);
+        let mut p = a + (b - a) * t;
+        p.z = 0.0;
+        p
+    };
+    let mut sum = 0.0f32;
+    let mut pending_exit: Option<Vec3> = None;
+    let mut first_entry: Option<Vec3> = None;
+    for i in 0..n {
+        let j = if i + 1 == n { 0 } else { i + 1 };
+        let (ia, ib) = (z[i] >= 0.0, z[j] >= 0.0);
+        match (ia, ib) {
+            (true, true) => sum += ez[i],
+            (false, false) => {}
+            (true, false) => {
+                let (a, b) = (v(i), v(j));
+                let p = crossing(a, b);
+                sum += edge_vector(a, p).z;
+                pending_exit = Some(p);
+            }
+            (false, true) => {
+                let (a, b) = (v(i), v(j));
+                let p = crossing(a, b);
+                match pending_exit.take() {
+                    Some(q) => sum += edge_vector(q, p).z,
+                    None => first_entry = first_entry.or(Some(p)),
+                }
+                sum += edge_vector(p, b).z;
+            }
+        }
+    }
+    if let (Some(q), Some(p)) = (pending_exit, first_entry) {
+        sum += edge_vector(q, p).z;
+    }
+    sum
 }
 
 /// Unclipped F (times 2π) of a polygon whose vertices are already in cosine
