@@ -331,8 +331,11 @@ impl GlossyLtc {
 
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
 pub fn exact_children_f32(rows: &[[f32; 3]; 3], orientation: f32, cell: Cell) -> [f32; 4] {
-    let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
     let scale = orientation * (0.5 / PI);
+    if let Some(d) = children_x16::clipped_small_children(rows, scale, cell) {
+        return d;
+    }
+    let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
     std::array::from_fn(|k| {
         let n = transformed_cached_polygon(cell.child(k), rows, &mut buf);
         (clipped_edge_sum_z(&buf[..n]) * scale).max(0.0)

@@ -152,6 +152,80 @@ pub fn edge_z_soa(x: &[f32], y: &[f32], z: &[f32], m: usize, ez: &mut [f32]) {
     }
 }
 
+/// Most vertices of a clipped small polygon: a convex polygon of ≤ 6
+/// vertices gains at most 2 crossing points.
+const SMALL_CLIP: usize = 8;
+
+/// Exactly clipped integrals (2π·F_z × `scale`, clamped at 0) of the 4
+/// children of a node whose children are small polygons (≤ 6 vertices: the
+/// level-1 quarter spheres). Each child is clipped at z = 0
+/// (Sutherland–Hodgman) into its own 8 lanes of two edge-start/edge-end
+/// batches, then all edges are evaluated 16 at a time and each child sums
+/// its 8 lanes in order. `None` when a polygon does not fit (the caller then
+/// clips polygon by polygon). Shared by the scalar and wide kernels.
+pub fn clipped_small_children(
+    rows: &[[f32; 3]; 3],
+    scale: f32,
+    cell: Cell,
+) -> Option<[f32; 4]> {
+    let mut a = [[0.0f32; 4 * SMALL_CLIP]; 3];
+    let mut b = [[0.0f32; 4 * SMALL_CLIP]; 3];
+    for k in 0..4 {
+        let poly = cached_cell_polygon(cell.child(k))?;
+        let n = poly.len();
+        if n > 6 {
+            return None;
+        }
+        let mut v = [Vec3::ZERO; 6];
+        for (q, p) in v.iter_mut().zip(poly) {
+            *q = super::polygon::transform_rows(rows, *p);
+        }
+        let mut c = [Vec3::ZERO; SMALL_CLIP];
+        let mut m = 0;
+        for i in 0..n {
+            let (p, q) = (v[i], v[if i + 1 == n { 0 } else { i + 1 }]);
+            if p.z >= 0.0 {
+                if m == SMALL_CLIP {
+                    return None;
+                }
+                c[m] = p;
+                m += 1;
+            }
+            if (p.z >= 0.0) != (q.z >= 0.0) {
+                if m == SMALL_CLIP {
+                    return None;
+                }
+                let t = p.z / (p.z - q.z);
+                let mut x = p + (q - p) * t;
+                x.z = 0.0;
+                c[m] = x;
+                m += 1;
+            }
+        }
+        if m < 3 {
+            continue;
+        }
+        for i in 0..m {
+            let (p, q) = (c[i], c[if i + 1 == m { 0 } else { i + 1 }]);
+            let l = SMALL_CLIP * k + i;
+            (a[0][l], a[1][l], a[2][l]) = (p.x, p.y, p.z);
+            (b[0][l], b[1][l], b[2][l]) = (q.x, q.y, q.z);
+        }
+    }
+    let mut ez = [0.0f32; 4 * SMALL_CLIP];
+    for h in 0..2 {
+        let o = 16 * h;
+        let pa = [load16(&a[0], o), load16(&a[1], o), load16(&a[2], o)];
+        let pb = [load16(&b[0], o), load16(&b[1], o), load16(&b[2], o)];
+        ez[o..o + 16].copy_from_slice(&edge_vectors(pa, pb)[2].to_array());
+    }
+    Some(std::array::from_fn(|k| {
+        let e = &ez[SMALL_CLIP * k..SMALL_CLIP * (k + 1)];
+        let sum = ((e[0] + e[1]) + (e[2] + e[3])) + ((e[4] + e[5]) + (e[6] + e[7]));
+        (sum * scale).max(0.0)
+    }))
+}
+
 /// World points of the corner grid for lane indices (zi, vi).
 #[inline(always)]
 fn grid_points(u: f32, w: f32, h: f32, zi: f32x16, vi: f32x16) -> [f32x16; 3] {
