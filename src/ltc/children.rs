@@ -34,8 +34,8 @@
 use super::children_x16;
 use super::form_factor;
 use super::polygon::{
-    MAX_CACHED_POLYGON, cell_integral_reference, clipped_edge_sum_z, edge_vector,
-    is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
+    MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
+    edge_vector, is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
     transformed_cached_polygon,
 };
 use super::sphere_clip::clipped_integral;
@@ -436,7 +436,15 @@ impl ShadingLtc {
         let (sp, cp) = phi_o.sin_cos();
         let rot_t = DMat3::from_cols(DVec3::new(cp, -sp, 0.0), DVec3::new(sp, cp, 0.0), DVec3::Z);
         let mut diffuse_weight = sanitize_weight(lobes.diffuse);
-        let mut glossy = [GlossyLtc::from_map(DMat3::IDENTITY, 0.0, opts.deep_cell_size); 1];
+        // Placeholder for unused slots (never read past `glossy_count`).
+        let mut glossy = [GlossyLtc {
+            weight: 0.0,
+            rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            a64: DMat3::IDENTITY,
+            orientation: 1.0,
+            det_abs: 1.0,
+            deep_depth: 64,
+        }; 1];
         let mut glossy_count = 0;
         for lobe in lobes.ggx.iter().take(lobes.ggx_count.min(1)) {
             let w = sanitize_weight(lobe.weight);
@@ -464,13 +472,23 @@ impl ShadingLtc {
             glossy_count += 1;
         }
         let total = diffuse_weight + glossy[..glossy_count].iter().map(|g| g.weight).sum::<f32>();
-        let diffuse_lobe = GlossyLtc::from_map(to_local, 1.0, opts.deep_cell_size);
+        // The diffuse map's rows and winding, without `from_map`'s
+        // switch-depth logarithm (the diffuse lobe has no deep switch).
+        let diffuse_rows = [0, 1, 2].map(|i| {
+            let r = to_local.row(i);
+            [r.x as f32, r.y as f32, r.z as f32]
+        });
+        let diffuse_orientation = if to_local.determinant() < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         ShadingLtc {
             diffuse_weight,
             normal,
             diffuse_map: to_local,
-            diffuse_rows: diffuse_lobe.rows,
-            diffuse_orientation: diffuse_lobe.orientation,
+            diffuse_rows,
+            diffuse_orientation,
             glossy,
             glossy_count,
             cos_theta_o,
@@ -547,14 +565,24 @@ impl ShadingLtc {
             // Large cells: classify by the polygon, clip straddlers exactly.
             let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let scale = self.diffuse_orientation * (0.5 / PI);
+            let zrow = self.diffuse_rows[2];
             return std::array::from_fn(|k| {
                 let child = cell.child(k);
-                let n = transformed_cached_polygon(child, &self.diffuse_rows, &mut buf);
-                let poly = &buf[..n];
-                match HorizonSide::of_vertices(poly) {
-                    HorizonSide::Above => form_factor::form_factor(child).dot(self.normal).max(0.0),
-                    HorizonSide::Below => 0.0,
-                    HorizonSide::Crossing => (clipped_edge_sum_z(poly) * scale).max(0.0),
+                // The side from the mapped z alone (the same operations as
+                // `transform_rows`); only straddlers are mapped in full.
+                let (mut above, mut below) = (true, true);
+                for v in cached_cell_polygon(child).expect("coarse cell") {
+                    let z = zrow[2].mul_add(v.z, zrow[1].mul_add(v.y, zrow[0] * v.x));
+                    above &= z >= 0.0;
+                    below &= z <= 0.0;
+                }
+                if above {
+                    form_factor::form_factor(child).dot(self.normal).max(0.0)
+                } else if below {
+                    0.0
+                } else {
+                    let n = transformed_cached_polygon(child, &self.diffuse_rows, &mut buf);
+                    (clipped_edge_sum_z(&buf[..n]) * scale).max(0.0)
                 }
             });
         }

@@ -163,11 +163,7 @@ const SMALL_CLIP: usize = 8;
 /// batches, then all edges are evaluated 16 at a time and each child sums
 /// its 8 lanes in order. `None` when a polygon does not fit (the caller then
 /// clips polygon by polygon). Shared by the scalar and wide kernels.
-pub fn clipped_small_children(
-    rows: &[[f32; 3]; 3],
-    scale: f32,
-    cell: Cell,
-) -> Option<[f32; 4]> {
+pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> Option<[f32; 4]> {
     let mut a = [[0.0f32; 4 * SMALL_CLIP]; 3];
     let mut b = [[0.0f32; 4 * SMALL_CLIP]; 3];
     for k in 0..4 {
