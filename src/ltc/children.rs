@@ -566,15 +566,31 @@ impl ShadingLtc {
             let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let scale = self.diffuse_orientation * (0.5 / PI);
             let zrow = self.diffuse_rows[2];
+            let hxy = (zrow[0] * zrow[0] + zrow[1] * zrow[1]).sqrt();
+            let n_child = (1u32 << (cell.depth + 1)) as f32;
             return std::array::from_fn(|k| {
                 let child = cell.child(k);
-                // The side from the mapped z alone (the same operations as
-                // `transform_rows`); only straddlers are mapped in full.
-                let (mut above, mut below) = (true, true);
-                for v in cached_cell_polygon(child).expect("coarse cell") {
-                    let z = zrow[2].mul_add(v.z, zrow[1].mul_add(v.y, zrow[0] * v.x));
-                    above &= z >= 0.0;
-                    below &= z <= 0.0;
+                // Whole-parallel bounds of the mapped z = n·ω over the
+                // child's two parallels decide most children at once (with a
+                // margin far above the vertices' f32 rounding); the rest are
+                // classified vertex by vertex with the operations of
+                // `transform_rows`. Only straddlers are mapped in full.
+                let (lo, hi) = [child.ix, child.ix + 1]
+                    .map(|i| (2.0 * i as f32 / n_child - 1.0).clamp(-1.0, 1.0))
+                    .iter()
+                    .fold((f32::MAX, f32::MIN), |(lo, hi), &z| {
+                        let r = (1.0 - z * z).max(0.0).sqrt();
+                        let c = zrow[2] * z;
+                        (lo.min(c - r * hxy), hi.max(c + r * hxy))
+                    });
+                let (mut above, mut below) = (lo > 1e-5, hi < -1e-5);
+                if !(above || below) {
+                    (above, below) = (true, true);
+                    for v in cached_cell_polygon(child).expect("coarse cell") {
+                        let z = zrow[2].mul_add(v.z, zrow[1].mul_add(v.y, zrow[0] * v.x));
+                        above &= z >= 0.0;
+                        below &= z <= 0.0;
+                    }
                 }
                 if above {
                     form_factor::form_factor(child).dot(self.normal).max(0.0)
