@@ -23,11 +23,55 @@ pub struct ProductModel<'t> {
     pub options: LtcOptions,
 }
 
+/// Depths below this get one memo slot each (deeper nodes are recomputed).
+const MEMO_DEPTHS: usize = 24;
+
+/// Per-vertex memo of child integrals, one slot per depth: `root_total`, the
+/// sample descent and the pdf descents at one vertex all start at the root
+/// and usually share their top levels, and a descent visits one node per
+/// depth, so a slot per depth holds exactly the shared prefix. The value is
+/// the same pure function of the cell whether it is computed or recalled, so
+/// sample and pdf stay bit-identical.
+#[derive(Clone, Debug)]
+pub struct ChildMemo {
+    /// (ix, iy) of the cell in each depth's slot; `u32::MAX` when empty.
+    keys: [(u32, u32); MEMO_DEPTHS],
+    values: [[f32; 4]; MEMO_DEPTHS],
+}
+
+impl Default for ChildMemo {
+    fn default() -> Self {
+        ChildMemo {
+            keys: [(u32::MAX, u32::MAX); MEMO_DEPTHS],
+            values: [[0.0; 4]; MEMO_DEPTHS],
+        }
+    }
+}
+
+impl ChildMemo {
+    /// D of `cell`'s children, from the memo or computed by `f`.
+    #[inline]
+    pub fn get_or(&mut self, cell: Cell, f: impl FnOnce() -> [f32; 4]) -> [f32; 4] {
+        let d = cell.depth as usize;
+        if d >= MEMO_DEPTHS {
+            return f();
+        }
+        if self.keys[d] == (cell.ix, cell.iy) {
+            return self.values[d];
+        }
+        let v = f();
+        self.keys[d] = (cell.ix, cell.iy);
+        self.values[d] = v;
+        v
+    }
+}
+
 /// Per-vertex weights: the product, or the radiance fallback.
 pub enum ProductWeights {
     Product {
         ltc: ShadingLtc,
         kernel: ProductKernel,
+        memo: ChildMemo,
     },
     RadianceOnly {
         albedo: f32,
@@ -38,8 +82,8 @@ impl ChildWeights for ProductWeights {
     #[inline]
     fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
         match self {
-            ProductWeights::Product { ltc, kernel } => {
-                let d = ltc.child_integrals(cell, *kernel);
+            ProductWeights::Product { ltc, kernel, memo } => {
+                let d = memo.get_or(cell, || ltc.child_integrals(cell, *kernel));
                 [
                     radiance[0] * d[0],
                     radiance[1] * d[1],
@@ -91,6 +135,7 @@ impl WeightModel for ProductModel<'_> {
         Some(ProductWeights::Product {
             ltc,
             kernel: self.kernel,
+            memo: ChildMemo::default(),
         })
     }
 

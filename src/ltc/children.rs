@@ -34,8 +34,9 @@
 use super::children_x16;
 use super::form_factor;
 use super::polygon::{
-    cell_integral_reference, cell_polygon_f32, clipped_edge_sum_z, edge_vector,
-    is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
+    MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
+    edge_vector, is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
+    transformed_cached_polygon,
 };
 use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
@@ -222,20 +223,17 @@ impl GlossyLtc {
         let (f, sides) = if is_plain_quad_depth(depth) {
             self.children_edge_sums_grid(cell)
         } else {
-            let mut poly = Vec::with_capacity(80);
-            let mut scratch = Vec::with_capacity(96);
+            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let mut sides = [HorizonSide::Above; 4];
             let mut exact = [0.0f32; 4];
             let f = std::array::from_fn(|k| {
-                cell_polygon_f32(cell.child(k), &mut poly);
-                for v in poly.iter_mut() {
-                    *v = transform_rows(&self.rows, *v);
-                }
-                sides[k] = HorizonSide::of_vertices(&poly);
+                let n = transformed_cached_polygon(cell.child(k), &self.rows, &mut buf);
+                let poly = &buf[..n];
+                sides[k] = HorizonSide::of_vertices(poly);
                 if sides[k] == HorizonSide::Crossing {
-                    exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+                    exact[k] = clipped_edge_sum_z(poly);
                 }
-                polygon_edge_sum(&poly)
+                polygon_edge_sum(poly)
             });
             return self.finish_children(cell, f, sides, Some(exact));
         };
@@ -333,15 +331,14 @@ impl GlossyLtc {
 
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
 pub fn exact_children_f32(rows: &[[f32; 3]; 3], orientation: f32, cell: Cell) -> [f32; 4] {
-    let mut poly = Vec::with_capacity(80);
-    let mut scratch = Vec::with_capacity(96);
     let scale = orientation * (0.5 / PI);
+    if let Some(d) = children_x16::clipped_small_children(rows, scale, cell) {
+        return d;
+    }
+    let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
     std::array::from_fn(|k| {
-        cell_polygon_f32(cell.child(k), &mut poly);
-        for v in poly.iter_mut() {
-            *v = transform_rows(rows, *v);
-        }
-        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
+        let n = transformed_cached_polygon(cell.child(k), rows, &mut buf);
+        (clipped_edge_sum_z(&buf[..n]) * scale).max(0.0)
     })
 }
 
@@ -439,7 +436,15 @@ impl ShadingLtc {
         let (sp, cp) = phi_o.sin_cos();
         let rot_t = DMat3::from_cols(DVec3::new(cp, -sp, 0.0), DVec3::new(sp, cp, 0.0), DVec3::Z);
         let mut diffuse_weight = sanitize_weight(lobes.diffuse);
-        let mut glossy = [GlossyLtc::from_map(DMat3::IDENTITY, 0.0, opts.deep_cell_size); 1];
+        // Placeholder for unused slots (never read past `glossy_count`).
+        let mut glossy = [GlossyLtc {
+            weight: 0.0,
+            rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            a64: DMat3::IDENTITY,
+            orientation: 1.0,
+            det_abs: 1.0,
+            deep_depth: 64,
+        }; 1];
         let mut glossy_count = 0;
         for lobe in lobes.ggx.iter().take(lobes.ggx_count.min(1)) {
             let w = sanitize_weight(lobe.weight);
@@ -467,13 +472,23 @@ impl ShadingLtc {
             glossy_count += 1;
         }
         let total = diffuse_weight + glossy[..glossy_count].iter().map(|g| g.weight).sum::<f32>();
-        let diffuse_lobe = GlossyLtc::from_map(to_local, 1.0, opts.deep_cell_size);
+        // The diffuse map's rows and winding, without `from_map`'s
+        // switch-depth logarithm (the diffuse lobe has no deep switch).
+        let diffuse_rows = [0, 1, 2].map(|i| {
+            let r = to_local.row(i);
+            [r.x as f32, r.y as f32, r.z as f32]
+        });
+        let diffuse_orientation = if to_local.determinant() < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         ShadingLtc {
             diffuse_weight,
             normal,
             diffuse_map: to_local,
-            diffuse_rows: diffuse_lobe.rows,
-            diffuse_orientation: diffuse_lobe.orientation,
+            diffuse_rows,
+            diffuse_orientation,
             glossy,
             glossy_count,
             cos_theta_o,
@@ -548,21 +563,42 @@ impl ShadingLtc {
         }
         if cell.depth < EXACT_CROSSING_DEPTH {
             // Large cells: classify by the polygon, clip straddlers exactly.
-            let mut poly = Vec::with_capacity(40);
-            let mut scratch = Vec::with_capacity(48);
+            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let scale = self.diffuse_orientation * (0.5 / PI);
+            let zrow = self.diffuse_rows[2];
+            let hxy = (zrow[0] * zrow[0] + zrow[1] * zrow[1]).sqrt();
+            let n_child = (1u32 << (cell.depth + 1)) as f32;
             return std::array::from_fn(|k| {
                 let child = cell.child(k);
-                cell_polygon_f32(child, &mut poly);
-                for v in poly.iter_mut() {
-                    *v = transform_rows(&self.diffuse_rows, *v);
-                }
-                match HorizonSide::of_vertices(&poly) {
-                    HorizonSide::Above => form_factor::form_factor(child).dot(self.normal).max(0.0),
-                    HorizonSide::Below => 0.0,
-                    HorizonSide::Crossing => {
-                        (clipped_edge_sum_z(&poly, &mut scratch) * scale).max(0.0)
+                // Whole-parallel bounds of the mapped z = n·ω over the
+                // child's two parallels decide most children at once (with a
+                // margin far above the vertices' f32 rounding); the rest are
+                // classified vertex by vertex with the operations of
+                // `transform_rows`. Only straddlers are mapped in full.
+                let (lo, hi) = [child.ix, child.ix + 1]
+                    .map(|i| (2.0 * i as f32 / n_child - 1.0).clamp(-1.0, 1.0))
+                    .iter()
+                    .fold((f32::MAX, f32::MIN), |(lo, hi), &z| {
+                        let r = (1.0 - z * z).max(0.0).sqrt();
+                        let c = zrow[2] * z;
+                        (lo.min(c - r * hxy), hi.max(c + r * hxy))
+                    });
+                let (mut above, mut below) = (lo > 1e-5, hi < -1e-5);
+                if !(above || below) {
+                    (above, below) = (true, true);
+                    for v in cached_cell_polygon(child).expect("coarse cell") {
+                        let z = zrow[2].mul_add(v.z, zrow[1].mul_add(v.y, zrow[0] * v.x));
+                        above &= z >= 0.0;
+                        below &= z <= 0.0;
                     }
+                }
+                if above {
+                    form_factor::form_factor(child).dot(self.normal).max(0.0)
+                } else if below {
+                    0.0
+                } else {
+                    let n = transformed_cached_polygon(child, &self.diffuse_rows, &mut buf);
+                    (clipped_edge_sum_z(&buf[..n]) * scale).max(0.0)
                 }
             });
         }

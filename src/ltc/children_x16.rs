@@ -10,7 +10,9 @@
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
-use super::polygon::{ATAN_COEFFS, cell_polygon_f32, clipped_edge_sum_z, is_plain_quad_depth};
+use super::polygon::{
+    ATAN_COEFFS, cached_cell_polygon, clipped_sum_z_from_edges, is_plain_quad_depth,
+};
 use crate::directional::Cell;
 use glam::Vec3;
 use wide::f32x16;
@@ -131,6 +133,95 @@ fn edge_vectors(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
     [cx * k, cy * k, cz * k]
 }
 
+#[inline(always)]
+fn load16(a: &[f32], i: usize) -> f32x16 {
+    f32x16::from(<[f32; 16]>::try_from(&a[i..i + 16]).unwrap())
+}
+
+/// `ez[j]` = (θ·(a×b)/|a×b|)_z of the edge (P[j], P[j+1]), j < m, of a
+/// polygon in structure-of-arrays form, 16 edges at a time, with the scalar
+/// [`super::polygon::edge_vector`]'s operations. The arrays must hold at
+/// least 16 entries past m − 1 (`ez` too).
+pub fn edge_z_soa(x: &[f32], y: &[f32], z: &[f32], m: usize, ez: &mut [f32]) {
+    let mut j = 0;
+    while j < m {
+        let a = [load16(x, j), load16(y, j), load16(z, j)];
+        let b = [load16(x, j + 1), load16(y, j + 1), load16(z, j + 1)];
+        ez[j..j + 16].copy_from_slice(&edge_vectors(a, b)[2].to_array());
+        j += 16;
+    }
+}
+
+/// Most vertices of a clipped small polygon: a convex polygon of ≤ 6
+/// vertices gains at most 2 crossing points.
+const SMALL_CLIP: usize = 8;
+
+/// Exactly clipped integrals (2π·F_z × `scale`, clamped at 0) of the 4
+/// children of a node whose children are small polygons (≤ 6 vertices: the
+/// level-1 quarter spheres). Each child is clipped at z = 0
+/// (Sutherland–Hodgman) into its own 8 lanes of two edge-start/edge-end
+/// batches, then all edges are evaluated 16 at a time and each child sums
+/// its 8 lanes in order. `None` when a polygon does not fit (the caller then
+/// clips polygon by polygon). Shared by the scalar and wide kernels.
+pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> Option<[f32; 4]> {
+    let mut a = [[0.0f32; 4 * SMALL_CLIP]; 3];
+    let mut b = [[0.0f32; 4 * SMALL_CLIP]; 3];
+    for k in 0..4 {
+        let poly = cached_cell_polygon(cell.child(k))?;
+        let n = poly.len();
+        if n > 6 {
+            return None;
+        }
+        let mut v = [Vec3::ZERO; 6];
+        for (q, p) in v.iter_mut().zip(poly) {
+            *q = super::polygon::transform_rows(rows, *p);
+        }
+        let mut c = [Vec3::ZERO; SMALL_CLIP];
+        let mut m = 0;
+        for i in 0..n {
+            let (p, q) = (v[i], v[if i + 1 == n { 0 } else { i + 1 }]);
+            if p.z >= 0.0 {
+                if m == SMALL_CLIP {
+                    return None;
+                }
+                c[m] = p;
+                m += 1;
+            }
+            if (p.z >= 0.0) != (q.z >= 0.0) {
+                if m == SMALL_CLIP {
+                    return None;
+                }
+                let t = p.z / (p.z - q.z);
+                let mut x = p + (q - p) * t;
+                x.z = 0.0;
+                c[m] = x;
+                m += 1;
+            }
+        }
+        if m < 3 {
+            continue;
+        }
+        for i in 0..m {
+            let (p, q) = (c[i], c[if i + 1 == m { 0 } else { i + 1 }]);
+            let l = SMALL_CLIP * k + i;
+            (a[0][l], a[1][l], a[2][l]) = (p.x, p.y, p.z);
+            (b[0][l], b[1][l], b[2][l]) = (q.x, q.y, q.z);
+        }
+    }
+    let mut ez = [0.0f32; 4 * SMALL_CLIP];
+    for h in 0..2 {
+        let o = 16 * h;
+        let pa = [load16(&a[0], o), load16(&a[1], o), load16(&a[2], o)];
+        let pb = [load16(&b[0], o), load16(&b[1], o), load16(&b[2], o)];
+        ez[o..o + 16].copy_from_slice(&edge_vectors(pa, pb)[2].to_array());
+    }
+    Some(std::array::from_fn(|k| {
+        let e = &ez[SMALL_CLIP * k..SMALL_CLIP * (k + 1)];
+        let sum = ((e[0] + e[1]) + (e[2] + e[3])) + ((e[4] + e[5]) + (e[6] + e[7]));
+        (sum * scale).max(0.0)
+    }))
+}
+
 /// World points of the corner grid for lane indices (zi, vi).
 #[inline(always)]
 fn grid_points(u: f32, w: f32, h: f32, zi: f32x16, vi: f32x16) -> [f32x16; 3] {
@@ -233,12 +324,11 @@ pub fn children_edge_sums_batched(
     g: &GlossyLtc,
     cell: Cell,
 ) -> ([Vec3; 4], [HorizonSide; 4], [f32; 4]) {
-    let mut poly = Vec::with_capacity(40);
     let mut p = [[0.0f32; MAX_POINTS]; 3];
     let mut start = [0usize; 5];
     let mut len = 0;
     for (k, s) in start.iter_mut().take(4).enumerate() {
-        cell_polygon_f32(cell.child(k), &mut poly);
+        let poly = cached_cell_polygon(cell.child(k)).expect("coarse cell");
         *s = len;
         for v in poly.iter().chain(std::iter::once(&poly[0])) {
             if len < MAX_POINTS - 17 {
@@ -264,12 +354,14 @@ pub fn children_edge_sums_batched(
         i += 16;
     }
     let mut sums = [Vec3::ZERO; 4];
+    let mut ez = [0.0f32; MAX_POINTS];
     let mut j = 0;
     while j + 1 < len {
         let a = [load(&t[0], j), load(&t[1], j), load(&t[2], j)];
         let b = [load(&t[0], j + 1), load(&t[1], j + 1), load(&t[2], j + 1)];
         let e = edge_vectors(a, b);
         let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
+        ez[j..j + 16].copy_from_slice(&z);
         for (k, sum) in sums.iter_mut().enumerate() {
             // Edges of child k start at points start[k]..start[k+1]−1.
             let lo = start[k].max(j);
@@ -282,7 +374,6 @@ pub fn children_edge_sums_batched(
     }
     let mut sides = [HorizonSide::Above; 4];
     let mut exact = [0.0f32; 4];
-    let mut scratch = Vec::with_capacity(96);
     for k in 0..4 {
         let (lo, hi) = (start[k], start[k + 1] - 1);
         let zs = &t[2][lo..hi];
@@ -294,9 +385,8 @@ pub fn children_edge_sums_batched(
             HorizonSide::Crossing
         };
         if sides[k] == HorizonSide::Crossing {
-            poly.clear();
-            poly.extend((lo..hi).map(|i| Vec3::new(t[0][i], t[1][i], t[2][i])));
-            exact[k] = clipped_edge_sum_z(&poly, &mut scratch);
+            exact[k] =
+                clipped_sum_z_from_edges(&t[0][lo..hi], &t[1][lo..hi], &t[2][lo..hi], &ez[lo..hi]);
         }
     }
     (sums, sides, exact)

@@ -335,40 +335,128 @@ fn polygon_cache() -> &'static PolygonCache {
 /// coarse levels come from a table built once, since their many chords
 /// would otherwise cost a sincos each on every call.
 pub fn cell_polygon_f32(cell: Cell, out: &mut Vec<Vec3>) {
-    if cell.depth <= CACHED_POLYGON_DEPTH {
-        let c = polygon_cache();
-        let n = 1usize << cell.depth;
-        let index =
-            ((1usize << (2 * cell.depth)) - 1) / 3 + cell.iy as usize * n + cell.ix as usize;
+    if let Some(p) = cached_cell_polygon(cell) {
         out.clear();
-        out.extend_from_slice(&c.verts[c.offsets[index] as usize..c.offsets[index + 1] as usize]);
+        out.extend_from_slice(p);
     } else {
         build_cell_polygon_f32(cell, out);
     }
 }
 
-/// 2π·F_z of the polygon clipped exactly at z = 0, in f32 (for the large
-/// polygons of coarse levels, where f32 has precision to spare).
-pub fn clipped_edge_sum_z(verts: &[Vec3], scratch: &mut Vec<Vec3>) -> f32 {
-    scratch.clear();
-    let n = verts.len();
-    for i in 0..n {
-        let a = verts[i];
-        let b = verts[(i + 1) % n];
-        if a.z >= 0.0 {
-            scratch.push(a);
-        }
-        if (a.z >= 0.0) != (b.z >= 0.0) {
-            let t = a.z / (a.z - b.z);
-            let mut p = a + (b - a) * t;
-            p.z = 0.0;
-            scratch.push(p);
-        }
+/// Most vertices of a cached (depth ≤ [`CACHED_POLYGON_DEPTH`]) polygon.
+pub const MAX_CACHED_POLYGON: usize = 40;
+
+/// The tabulated chord polygon of a cell at depth ≤ [`CACHED_POLYGON_DEPTH`]
+/// (no copy, no allocation); `None` deeper.
+#[inline]
+pub fn cached_cell_polygon(cell: Cell) -> Option<&'static [Vec3]> {
+    if cell.depth > CACHED_POLYGON_DEPTH {
+        return None;
     }
-    if scratch.len() < 3 {
+    let c = polygon_cache();
+    let n = 1usize << cell.depth;
+    let index = ((1usize << (2 * cell.depth)) - 1) / 3 + cell.iy as usize * n + cell.ix as usize;
+    let p = &c.verts[c.offsets[index] as usize..c.offsets[index + 1] as usize];
+    debug_assert!(p.len() <= MAX_CACHED_POLYGON);
+    Some(p)
+}
+
+/// The tabulated polygon of a coarse cell mapped through `rows` into a
+/// stack buffer; returns the vertex count.
+#[inline]
+pub fn transformed_cached_polygon(
+    cell: Cell,
+    rows: &[[f32; 3]; 3],
+    out: &mut [Vec3; MAX_CACHED_POLYGON],
+) -> usize {
+    let p = cached_cell_polygon(cell).expect("coarse cell");
+    let n = p.len().min(MAX_CACHED_POLYGON);
+    for (o, v) in out.iter_mut().zip(&p[..n]) {
+        *o = transform_rows(rows, *v);
+    }
+    n
+}
+
+/// Room for a polygon's edge components plus one batch of zero padding
+/// for the 16-wide edge sum.
+const EDGE_CAPACITY: usize = MAX_CACHED_POLYGON + 1 + 16;
+
+/// 2π·F_z of the polygon clipped exactly at z = 0, in f32 (for the large
+/// polygons of coarse levels, where f32 has precision to spare): the
+/// unclipped edges' z components 16 at a time
+/// ([`super::children_x16::edge_z_soa`]), then [`clipped_sum_z_from_edges`].
+/// Both the scalar and the wide kernels end up in that one function, so they
+/// agree bit for bit. No allocation; at most [`MAX_CACHED_POLYGON`] vertices.
+pub fn clipped_edge_sum_z(verts: &[Vec3]) -> f32 {
+    let n = verts.len().min(MAX_CACHED_POLYGON);
+    let mut x = [0.0f32; EDGE_CAPACITY];
+    let mut y = [0.0f32; EDGE_CAPACITY];
+    let mut z = [0.0f32; EDGE_CAPACITY];
+    for (i, v) in verts[..n].iter().enumerate() {
+        x[i] = v.x;
+        y[i] = v.y;
+        z[i] = v.z;
+    }
+    if n == 0 {
         return 0.0;
     }
-    polygon_edge_sum(scratch).z
+    x[n] = x[0];
+    y[n] = y[0];
+    z[n] = z[0];
+    let mut ez = [0.0f32; EDGE_CAPACITY];
+    super::children_x16::edge_z_soa(&x, &y, &z, n, &mut ez);
+    clipped_sum_z_from_edges(&x[..n], &y[..n], &z[..n], &ez[..n])
+}
+
+/// 2π·F_z of a polygon (structure of arrays, not closed) clipped exactly at
+/// z = 0, given `ez[i]`, the z component of its unclipped edge i → i+1.
+///
+/// The Sutherland–Hodgman output, edge by edge: an edge with both ends at
+/// z ≥ 0 survives whole (its `ez` is reused); an edge leaving the upper
+/// half-space keeps its part from its start to the crossing point, one
+/// entering keeps its part from the crossing point on, and each exit point
+/// is joined to the next entry point (cyclically) along the horizon. Only
+/// those few partial and horizon edges are evaluated here (scalar), so the
+/// clip costs a handful of edges instead of a second pass over the polygon.
+pub fn clipped_sum_z_from_edges(x: &[f32], y: &[f32], z: &[f32], ez: &[f32]) -> f32 {
+    let n = ez.len();
+    let v = |i: usize| Vec3::new(x[i], y[i], z[i]);
+    let crossing = |a: Vec3, b: Vec3| {
+        let t = a.z / (a.z - b.z);
+        let mut p = a + (b - a) * t;
+        p.z = 0.0;
+        p
+    };
+    let mut sum = 0.0f32;
+    let mut pending_exit: Option<Vec3> = None;
+    let mut first_entry: Option<Vec3> = None;
+    for i in 0..n {
+        let j = if i + 1 == n { 0 } else { i + 1 };
+        let (ia, ib) = (z[i] >= 0.0, z[j] >= 0.0);
+        match (ia, ib) {
+            (true, true) => sum += ez[i],
+            (false, false) => {}
+            (true, false) => {
+                let (a, b) = (v(i), v(j));
+                let p = crossing(a, b);
+                sum += edge_vector(a, p).z;
+                pending_exit = Some(p);
+            }
+            (false, true) => {
+                let (a, b) = (v(i), v(j));
+                let p = crossing(a, b);
+                match pending_exit.take() {
+                    Some(q) => sum += edge_vector(q, p).z,
+                    None => first_entry = first_entry.or(Some(p)),
+                }
+                sum += edge_vector(p, b).z;
+            }
+        }
+    }
+    if let (Some(q), Some(p)) = (pending_exit, first_entry) {
+        sum += edge_vector(q, p).z;
+    }
+    sum
 }
 
 /// Unclipped F (times 2π) of a polygon whose vertices are already in cosine
