@@ -259,12 +259,15 @@ impl Accel {
             (inv.z < 0.0) as usize,
         );
         let tmin_v = f32x8::splat(tmin);
-        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        // Uninitialised: zeroing 1 KiB per ray costs as much as traversing
+        // a small scene. Only entries below `sp` are ever read.
+        let mut stack = [std::mem::MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
         let mut sp = 1usize;
-        stack[0] = (0, tmin);
+        stack[0].write((0, tmin));
         while sp > 0 {
             sp -= 1;
-            let (index, t_enter) = stack[sp];
+            // SAFETY: every slot below `sp` was written before `sp` passed it.
+            let (index, t_enter) = unsafe { stack[sp].assume_init() };
             if t_enter > *tmax {
                 continue;
             }
@@ -327,7 +330,9 @@ impl Accel {
                 // Unreachable for obvhs trees (depth ≪ 16); never overflow.
                 n_pending = STACK_SIZE - sp;
             }
-            stack[sp..sp + n_pending].copy_from_slice(&pending[..n_pending]);
+            for (slot, &entry) in stack[sp..sp + n_pending].iter_mut().zip(&pending[..n_pending]) {
+                slot.write(entry);
+            }
             sp += n_pending;
         }
     }
