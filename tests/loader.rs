@@ -2,7 +2,7 @@
 //! rejected with one clear line naming file, line and element, exit code 2,
 //! no panic and no output file.
 
-use ltcguide::scene::load_scene;
+use ltcguide::scene::{load_scene, load_scene_from_str};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -186,4 +186,25 @@ fn an_ignorable_element_is_a_warning() {
     assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
     assert!(scene.warnings[0].contains("volpath"));
     assert!(scene.warnings[0].contains("ignored_integrator.xml:3:"));
+}
+
+#[test]
+fn loading_from_a_string_is_loading_the_file_it_names() {
+    let path = data("ok/all_elements.xml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let (a, b) = (
+        load_scene(&path).unwrap(),
+        load_scene_from_str(&text, &path).unwrap(),
+    );
+    assert_eq!(a.name, b.name);
+    assert_eq!(a.geometry.len(), b.geometry.len());
+    assert_eq!(a.lights.lights.len(), b.lights.lights.len());
+    assert_eq!(a.materials.len(), b.materials.len());
+    // Meshes resolve against the folder of the given path, and errors name it.
+    let elsewhere = Path::new("/nonexistent-ltcguide/x.xml");
+    let Err(err) = load_scene_from_str(&text, elsewhere) else {
+        panic!("loaded with its mesh missing");
+    };
+    assert_eq!(err.file, elsewhere);
+    assert!(err.message.contains("mesh file not found"), "{err}");
 }

@@ -31,16 +31,50 @@ impl SceneError {
 
 impl fmt::Display for SceneError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        // Newlines inside messages (e.g. from parsers) would break the one-line promise.
-        let message = self.message.replace('\n', " ");
         write!(
             f,
             "{}:{}: {}: {}",
             self.file.display(),
             self.line,
-            self.element,
-            message
+            one_line(&self.element),
+            one_line(&self.message)
         )
+    }
+}
+
+/// Parsers quote the offending input and elements quote attribute values
+/// (`&#10;` and `&#13;` survive XML normalisation), so either can carry line
+/// breaks or other control characters that would break the one-line promise.
+fn one_line(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_control() || c == '\u{2028}' || c == '\u{2029}' {
+                ' '
+            } else {
+                c
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn display_is_one_line_whatever_the_parts_hold() {
+        let e = SceneError::new(
+            Path::new("s.xml"),
+            3,
+            "<bsdf type=\"a\nb\">",
+            "expected '>' not '\r'\u{2028}x\u{85}",
+        );
+        let text = e.to_string();
+        assert_eq!(
+            text,
+            "s.xml:3: <bsdf type=\"a b\">: expected '>' not ' ' x "
+        );
+        assert_eq!(text.lines().count(), 1);
     }
 }
 

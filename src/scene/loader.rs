@@ -24,7 +24,14 @@ use std::sync::Arc;
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(path, 0, "scene", format!("cannot read scene file: {e}")))?;
-    let doc = roxmltree::Document::parse(&text).map_err(|e| {
+    load_scene_from_str(&text, path)
+}
+
+/// Loads a scene from XML text as if it had been read from `path`: errors
+/// name `path`, and `filename` properties resolve against its folder. Lets
+/// tools and the fuzzer skip writing the XML to disk.
+pub fn load_scene_from_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let doc = roxmltree::Document::parse(text).map_err(|e| {
         // A truncated file fails at its end, wherever the parser says.
         let row = match e {
             roxmltree::Error::UnexpectedEndOfStream => text.lines().count().max(1) as u32,
@@ -37,6 +44,11 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     builder.scene(doc.root_element())?;
     builder.finish(path)
 }
+
+/// Largest world coordinate a shape may reach. Far beyond any sensible scene
+/// (f32 spacing there is 64), yet small enough that the squares of squared
+/// extents (|e1 × e2|² in triangle areas, BVH surface areas) stay finite.
+const MAX_COORDINATE: f32 = 1e9;
 
 struct PendingShape {
     material: u32,
@@ -602,6 +614,23 @@ impl<'a> Builder<'a> {
             }
             other => return Err(ctx.error(node, format!("unsupported shape type '{other}'"))),
         };
+        // Finite numbers can still overflow f32 once transformed, and the
+        // BVH build panics on infinite bounds or surface areas.
+        let too_far = |v: Vec3| !(v.abs().max_element() <= MAX_COORDINATE);
+        if let Some(i) = triangles.iter().position(|t| t.p.into_iter().any(too_far)) {
+            return Err(ctx.error(
+                node,
+                format!("triangle {i} lies beyond ±{MAX_COORDINATE:e}: coordinates too large"),
+            ));
+        }
+        if let Some((center, radius, _)) = sphere {
+            if too_far(center.abs() + radius) {
+                return Err(ctx.error(
+                    node,
+                    format!("sphere reaches beyond ±{MAX_COORDINATE:e}: coordinates too large"),
+                ));
+            }
+        }
         props.warn_unused();
         self.shapes.push(PendingShape {
             material,

@@ -8,7 +8,7 @@ pub mod shapes;
 pub mod xml;
 
 pub use error::SceneError;
-pub use loader::load_scene;
+pub use loader::{load_scene, load_scene_from_str};
 
 use crate::accel::{Accel, Hit, KIND_SPHERE, PrimGeom};
 use crate::bsdf::Material;
