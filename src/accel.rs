@@ -330,7 +330,10 @@ impl Accel {
                 // Unreachable for obvhs trees (depth ≪ 16); never overflow.
                 n_pending = STACK_SIZE - sp;
             }
-            for (slot, &entry) in stack[sp..sp + n_pending].iter_mut().zip(&pending[..n_pending]) {
+            for (slot, &entry) in stack[sp..sp + n_pending]
+                .iter_mut()
+                .zip(&pending[..n_pending])
+            {
                 slot.write(entry);
             }
             sp += n_pending;
