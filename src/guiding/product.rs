@@ -149,3 +149,101 @@ impl WeightModel for ProductModel<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bsdf::{GgxLobe, Lobes};
+    use crate::guiding::descent;
+    use crate::guiding::quadtree::{QuadNode, QuadTree};
+    use crate::math::Frame;
+    use crate::sampling::Rng;
+    use glam::Vec3;
+
+    fn product_weights(table: &LtcTable, alpha: f32) -> ProductWeights {
+        let frame = Frame::from_normal(Vec3::new(0.3, -0.5, 0.8).normalize());
+        let wo = Vec3::new(0.55, 0.45, 0.707).normalize();
+        let lobes = Lobes {
+            diffuse: 0.4,
+            ggx: [GgxLobe { weight: 0.6, alpha }],
+            ggx_count: 1,
+            delta: 0.0,
+            side: 1.0,
+        };
+        let ltc = ShadingLtc::new(&lobes, &frame, wo, table, &LtcOptions::default());
+        ProductWeights::Product {
+            ltc,
+            kernel: ProductKernel::Simd,
+            memo: ChildMemo::default(),
+        }
+    }
+
+    /// A full tree to node depth 3 with random sums (some zero), and a chain
+    /// below its first depth-3 node down to the deepest cells allowed.
+    fn tree(rng: &mut Rng) -> QuadTree {
+        const INTERNAL: u32 = 1 + 4 + 16;
+        const FULL: u32 = INTERNAL + 64;
+        const CHAIN: u32 = 16;
+        let nodes = (0..FULL + CHAIN)
+            .map(|i| {
+                let sums = std::array::from_fn(|_| {
+                    let x = rng.next_f32();
+                    if x < 0.1 { 0.0 } else { x }
+                });
+                let mut children = [0u32; 4];
+                if i < INTERNAL {
+                    children = std::array::from_fn(|k| 4 * i + 1 + k as u32);
+                } else if i == INTERNAL {
+                    children[1] = FULL;
+                } else if i >= FULL && i + 1 < FULL + CHAIN {
+                    children[1] = i + 1;
+                }
+                QuadNode { sums, children }
+            })
+            .collect();
+        QuadTree::from_nodes(nodes).unwrap()
+    }
+
+    /// Samples and pdfs with one memoised weight object, interleaved at
+    /// random points, against fresh (empty-memo) weights: every pdf is bit
+    /// for bit the same, and so are the weights at every visited node.
+    #[test]
+    fn memo_keeps_sample_and_pdf_bit_identical() {
+        let table = LtcTable::load_default().unwrap();
+        let mut rng = Rng::new(7, 2);
+        let t = tree(&mut rng);
+        for alpha in [0.05f32, 0.3] {
+            let mut w = product_weights(&table, alpha);
+            let root = descent::root_total(&t, &mut w);
+            assert_eq!(
+                root.to_bits(),
+                descent::root_total(&t, &mut product_weights(&table, alpha)).to_bits()
+            );
+            let mut sampled = 0;
+            for _ in 0..400 {
+                let u = rng.next_2d();
+                if let Some((p, pdf_s)) = descent::sample(&t, &mut w, u) {
+                    sampled += 1;
+                    let pdf_memo = descent::pdf(&t, &mut w, p);
+                    let pdf_fresh = descent::pdf(&t, &mut product_weights(&table, alpha), p);
+                    assert_eq!(pdf_s.to_bits(), pdf_memo.to_bits(), "{p:?}");
+                    assert_eq!(pdf_s.to_bits(), pdf_fresh.to_bits(), "{p:?}");
+                }
+                // A pdf at an unrelated point in between evicts deep slots.
+                let q = rng.next_2d();
+                let a = descent::pdf(&t, &mut w, q);
+                let b = descent::pdf(&t, &mut product_weights(&table, alpha), q);
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
+            assert!(sampled > 300);
+        }
+        // The memo itself: a hit returns what was stored, a miss recomputes.
+        let mut m = ChildMemo::default();
+        let c = Cell::ROOT.child(2).child(1);
+        assert_eq!(m.get_or(c, || [1.0, 2.0, 3.0, 4.0]), [1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(m.get_or(c, || [9.0; 4]), [1.0, 2.0, 3.0, 4.0]);
+        let d = Cell::ROOT.child(2).child(3);
+        assert_eq!(m.get_or(d, || [5.0; 4]), [5.0; 4]);
+        assert_eq!(m.get_or(c, || [6.0; 4]), [6.0; 4]);
+    }
+}

@@ -509,6 +509,53 @@ mod tests {
         assert_eq!(edge_vector(a, b), -edge_vector(b, a));
     }
 
+    /// The clip from unclipped edges (partial and horizon edges only)
+    /// against the f64 Sutherland–Hodgman reference, on mapped coarse cells
+    /// that straddle the horizon, sit above it or below it.
+    #[test]
+    fn clip_from_edges_matches_f64_reference() {
+        let mut straddling = 0;
+        let mut worst = 0.0f64;
+        let mut p64 = Vec::new();
+        let mut scratch = Vec::new();
+        for trial in 0..200u32 {
+            let t = trial as f64;
+            // A tilted, sheared, sometimes mirrored map.
+            let a = DMat3::from_cols(
+                DVec3::new(1.0 + 0.3 * (t * 0.7).sin(), 0.2 * (t * 1.3).cos(), 0.1),
+                DVec3::new(-0.1, 0.8 + 0.4 * (t * 0.9).cos(), 0.3 * (t * 0.4).sin()),
+                DVec3::new(0.5 * (t * 0.31).sin(), 0.5 * (t * 0.17).cos(), 0.6),
+            ) * if trial % 7 == 0 { -1.0 } else { 1.0 };
+            let rows = [0, 1, 2].map(|i| {
+                let r = a.row(i);
+                [r.x as f32, r.y as f32, r.z as f32]
+            });
+            let depth = 1 + trial % 5;
+            let n = 1u32 << depth;
+            let cell = Cell {
+                depth,
+                ix: (trial * 7) % n,
+                iy: (trial * 3) % n,
+            };
+            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
+            let m = transformed_cached_polygon(cell, &rows, &mut buf);
+            let got = clipped_edge_sum_z(&buf[..m]) as f64 / (2.0 * PI);
+            cell_polygon_f64(cell, &mut p64);
+            for v in p64.iter_mut() {
+                *v = a * *v;
+            }
+            let want = clipped_cosine_integral_f64(&p64, &mut scratch);
+            let zs = buf[..m].iter().map(|v| v.z);
+            if zs.clone().any(|z| z > 0.0) && zs.clone().any(|z| z < 0.0) {
+                straddling += 1;
+            }
+            worst = worst.max((got - want).abs());
+            assert!((got - want).abs() <= 2e-5, "{cell:?}: {got} vs {want}");
+        }
+        assert!(straddling > 40, "{straddling}");
+        println!("clip from edges vs f64: worst {worst:.1e}");
+    }
+
     #[test]
     fn level_one_polygon_splits_the_antipodal_equator() {
         let mut p = Vec::new();
