@@ -47,7 +47,7 @@ done
   echo "## Ablation: cost of $ABLATION_SPP spp per product kernel (the paper's Table 1)"
   echo
 } >> "$PAGE"
-for scene in veach-ajar staircase; do
+for scene in veach-ajar; do
   echo "results: ablation $scene" >&2
   {
     echo "### $scene"
