@@ -44,6 +44,10 @@ for scene in cornell-box veach-mis veach-ajar staircase living-room; do
   } >> "$PAGE"
 done
 {
+  echo "## Equal-time ratios (final error, mean over runs; < 1 means product is better)"
+  echo
+  python3 scripts/ratios.py "$OUT"
+  echo
   echo "## Ablation: cost of $ABLATION_SPP spp per product kernel (the paper's Table 1)"
   echo
 } >> "$PAGE"

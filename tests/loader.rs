@@ -92,6 +92,81 @@ const BAD: &[(&str, &str, u32, &str)] = &[
         "unsupported bsdf type",
     ),
     ("wrong_type.xml", "wrong_type.xml", 7, "must be <float>"),
+    (
+        "conductor_missing_k.xml",
+        "conductor_missing_k.xml",
+        25,
+        "needs both 'eta' and 'k'",
+    ),
+    (
+        "twosided_two_children.xml",
+        "twosided_two_children.xml",
+        25,
+        "exactly one inline",
+    ),
+    (
+        "twosided_dielectric.xml",
+        "twosided_dielectric.xml",
+        25,
+        "cannot wrap a dielectric",
+    ),
+    (
+        "two_sensors.xml",
+        "two_sensors.xml",
+        27,
+        "more than one <sensor>",
+    ),
+    ("bad_fov.xml", "bad_fov.xml", 6, "fov must be in"),
+    (
+        "bad_fov_axis.xml",
+        "bad_fov_axis.xml",
+        7,
+        "unknown fov_axis",
+    ),
+    ("zero_film.xml", "zero_film.xml", 11, "out of range"),
+    (
+        "shape_without_bsdf.xml",
+        "shape_without_bsdf.xml",
+        23,
+        "needs a bsdf",
+    ),
+    (
+        "area_at_top_level.xml",
+        "area_at_top_level.xml",
+        27,
+        "must be nested in a shape",
+    ),
+    (
+        "unsupported_shape.xml",
+        "unsupported_shape.xml",
+        23,
+        "unsupported shape type",
+    ),
+    (
+        "nonlinear_plastic.xml",
+        "nonlinear_plastic.xml",
+        25,
+        "nonlinear=true",
+    ),
+    (
+        "negative_envmap_scale.xml",
+        "negative_envmap_scale.xml",
+        27,
+        "scale must not be negative",
+    ),
+    (
+        "unsupported_texture.xml",
+        "unsupported_texture.xml",
+        25,
+        "unsupported texture type",
+    ),
+    (
+        "duplicate_bsdf_id.xml",
+        "duplicate_bsdf_id.xml",
+        28,
+        "duplicate bsdf id",
+    ),
+    ("zero_ior.xml", "zero_ior.xml", 25, "IORs must be positive"),
 ];
 
 #[test]

@@ -9,7 +9,7 @@ use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step}
 use super::sdtree::{SdTree, SdTreeConfig};
 use crate::film::image::{Film, Image};
 use crate::integrator::guide::NoGuide;
-use crate::integrator::path::RouletteMode;
+use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::integrator::render_pass;
 use crate::integrator::stats::RenderCounters;
 use crate::math::{Spectrum, luminance};
@@ -183,7 +183,7 @@ fn guiding_does_not_pay(
     let (e0, e1) = (eff(first, first_seconds), eff(last, last_seconds));
     (e0.is_finite() && e1.is_finite() && e1 < e0).then(|| {
         format!(
-            "guiding does not pay here (trained efficiency {:.3e} < unguided {:.3e}): the rest of the budget is rendered unguided",
+            "guiding does not pay here (trained efficiency {:.3e} < unguided {:.3e}): the rest of the budget is rendered by path tracing with NEE",
             e1, e0
         )
     })
@@ -269,7 +269,14 @@ pub fn render_guided<M: WeightModel>(
                     records.merge(&record_pass(&mut tree, &out.recorders));
                 }
             } else {
-                let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass, None);
+                // The cheaper strategy is plain path tracing at its best:
+                // with NEE and classic roulette.
+                let unguided = PathSettings {
+                    nee: true,
+                    roulette: RouletteMode::Classic,
+                    ..opts.path
+                };
+                let out = render_pass(scene, &NoGuide, &unguided, opts.seed, pass, None);
                 film.merge(&out.film);
                 counters.add(&out.counters);
             }
