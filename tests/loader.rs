@@ -167,6 +167,80 @@ const BAD: &[(&str, &str, u32, &str)] = &[
         "duplicate bsdf id",
     ),
     ("zero_ior.xml", "zero_ior.xml", 25, "IORs must be positive"),
+    (
+        "two_emitters_on_shape.xml",
+        "two_emitters_on_shape.xml",
+        21,
+        "at most one emitter",
+    ),
+    (
+        "unexpected_in_bsdf.xml",
+        "unexpected_in_bsdf.xml",
+        25,
+        "inside a bsdf",
+    ),
+    ("anisotropic.xml", "anisotropic.xml", 25, "anisotropic"),
+    (
+        "checker_rotate.xml",
+        "checker_rotate.xml",
+        25,
+        "must be a <scale>",
+    ),
+    (
+        "film_type.xml",
+        "film_type.xml",
+        11,
+        "unsupported film type",
+    ),
+    (
+        "sensor_type.xml",
+        "sensor_type.xml",
+        6,
+        "unsupported sensor type",
+    ),
+    (
+        "unexpected_in_shape.xml",
+        "unexpected_in_shape.xml",
+        25,
+        "inside a shape",
+    ),
+    (
+        "unexpected_in_sensor.xml",
+        "unexpected_in_sensor.xml",
+        11,
+        "in <sensor>",
+    ),
+    (
+        "two_integrators.xml",
+        "two_integrators.xml",
+        27,
+        "more than one <integrator>",
+    ),
+    (
+        "bad_max_depth.xml",
+        "bad_max_depth.xml",
+        3,
+        "max_depth must be",
+    ),
+    (
+        "bad_boolean.xml",
+        "bad_boolean.xml",
+        24,
+        "'true' or 'false'",
+    ),
+    (
+        "constant_no_radiance.xml",
+        "constant_no_radiance.xml",
+        27,
+        "needs 'radiance'",
+    ),
+    (
+        "bsdf_without_id.xml",
+        "bsdf_without_id.xml",
+        27,
+        "missing attribute 'id'",
+    ),
+    ("bad_lookat.xml", "bad_lookat.xml", 9, "degenerate lookat"),
 ];
 
 #[test]
