@@ -9,12 +9,12 @@ use super::shapes::{ShapeTriangle, cube, rectangle};
 use super::xml::{Properties, XmlContext};
 use super::{Scene, Shape, TriangleShading};
 use crate::accel::{Accel, PrimGeom};
-use crate::bsdf::{ConductorFresnel, Material, MaterialKind};
+use crate::bsdf::Material;
 use crate::camera::{Camera, FovAxis};
 use crate::emitter::{EmitterTriangle, EnvMap, Light, Lights};
 use crate::math::Spectrum;
-use crate::texture::{RgbImage, Texture, load_image};
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use crate::texture::RgbImage;
+use glam::{Mat3, Mat4, Vec3};
 use roxmltree::Node;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -50,23 +50,23 @@ pub fn load_scene_from_str(text: &str, path: &Path) -> Result<Scene, SceneError>
 /// extents (|e1 × e2|² in triangle areas, BVH surface areas) stay finite.
 const MAX_COORDINATE: f32 = 1e9;
 
-struct PendingShape {
+pub(super) struct PendingShape {
     material: u32,
     triangles: Vec<ShapeTriangle>,
     sphere: Option<(Vec3, f32, bool)>,
     emitter: Option<Spectrum>,
 }
 
-struct Builder<'a> {
-    ctx: &'a XmlContext<'a>,
-    camera: Option<Camera>,
-    max_depth: Option<u32>,
-    materials: Vec<Material>,
-    named_materials: HashMap<String, u32>,
-    shapes: Vec<PendingShape>,
-    infinite_lights: Vec<Light>,
-    image_cache: HashMap<(PathBuf, bool), Arc<RgbImage>>,
-    has_integrator: bool,
+pub(super) struct Builder<'a> {
+    pub(super) ctx: &'a XmlContext<'a>,
+    pub(super) camera: Option<Camera>,
+    pub(super) max_depth: Option<u32>,
+    pub(super) materials: Vec<Material>,
+    pub(super) named_materials: HashMap<String, u32>,
+    pub(super) shapes: Vec<PendingShape>,
+    pub(super) infinite_lights: Vec<Light>,
+    pub(super) image_cache: HashMap<(PathBuf, bool), Arc<RgbImage>>,
+    pub(super) has_integrator: bool,
 }
 
 impl<'a> Builder<'a> {
@@ -230,245 +230,6 @@ impl<'a> Builder<'a> {
             }
         }
         Ok(Camera::new(to_world, fov, axis, width, height))
-    }
-
-    fn spectrum_or_texture(
-        &mut self,
-        props: &Properties,
-        name: &str,
-        default: f32,
-    ) -> Result<Texture, SceneError> {
-        let ctx = self.ctx;
-        let Some(node) = props.rgb_or_texture(name) else {
-            return Ok(Texture::Constant(Spectrum::splat(default)));
-        };
-        let value = match node.tag_name().name() {
-            "rgb" => Texture::Constant(ctx.vec3_attr(node, "value")?),
-            "float" => Texture::Constant(Spectrum::splat(
-                ctx.number(node, ctx.required_attr(node, "value")?)?,
-            )),
-            "texture" => self.texture(node)?,
-            other => {
-                return Err(ctx.error(
-                    node,
-                    format!("property '{name}' must be <rgb>, <float> or <texture>, not <{other}>"),
-                ));
-            }
-        };
-        if let Texture::Constant(c) = value {
-            if c.min_element() < 0.0 {
-                return Err(ctx.error(node, format!("'{name}' must not be negative")));
-            }
-        }
-        Ok(value)
-    }
-
-    fn texture(&mut self, node: Node) -> Result<Texture, SceneError> {
-        let ctx = self.ctx;
-        let ty = ctx.required_attr(node, "type")?;
-        let props = Properties::new(ctx, node);
-        let tex = match ty {
-            "bitmap" => {
-                let (file, fnode) = props
-                    .string("filename")?
-                    .ok_or_else(|| ctx.error(node, "bitmap needs a 'filename'"))?;
-                let raw = props.boolean("raw", false)?;
-                if let Some((f, n)) = props.string("filter_type")? {
-                    if f != "bilinear" {
-                        return Err(ctx.error(
-                            n,
-                            format!("unsupported filter_type '{f}' (only 'bilinear')"),
-                        ));
-                    }
-                }
-                let path = ctx.resolve_path(fnode, &file)?;
-                Texture::Bitmap(self.image(&path, raw, fnode)?)
-            }
-            "checkerboard" => {
-                let c0 = props.rgb("color0")?.unwrap_or(Spectrum::splat(0.4));
-                let c1 = props.rgb("color1")?.unwrap_or(Spectrum::splat(0.2));
-                if c0.min_element() < 0.0 || c1.min_element() < 0.0 {
-                    return Err(ctx.error(node, "checkerboard colours must not be negative"));
-                }
-                let scale = match props.transform("to_uv")? {
-                    None => Vec2::ONE,
-                    Some((m, n)) => {
-                        // The subset allows only a scale here.
-                        let s = Vec2::new(m.x_axis.x, m.y_axis.y);
-                        if m.x_axis.y != 0.0
-                            || m.y_axis.x != 0.0
-                            || m.w_axis.x != 0.0
-                            || m.w_axis.y != 0.0
-                        {
-                            return Err(ctx.error(n, "checkerboard to_uv must be a <scale>"));
-                        }
-                        s
-                    }
-                };
-                Texture::Checkerboard {
-                    color0: c0,
-                    color1: c1,
-                    scale,
-                }
-            }
-            other => return Err(ctx.error(node, format!("unsupported texture type '{other}'"))),
-        };
-        props.warn_unused();
-        Ok(tex)
-    }
-
-    fn image(&mut self, path: &Path, raw: bool, node: Node) -> Result<Arc<RgbImage>, SceneError> {
-        let key = (path.to_path_buf(), raw);
-        if let Some(img) = self.image_cache.get(&key) {
-            return Ok(img.clone());
-        }
-        if !path.exists() {
-            return Err(self
-                .ctx
-                .error(node, format!("file not found: '{}'", path.display())));
-        }
-        let img = load_image(path, raw).map_err(|e| self.ctx.error(node, e))?;
-        let bad = img.non_finite_pixels();
-        if bad > 0 {
-            return Err(self.ctx.error(
-                node,
-                format!(
-                    "image '{}' has {bad} pixels with NaN or Inf",
-                    path.display()
-                ),
-            ));
-        }
-        if img.pixels.iter().any(|p| p.min_element() < 0.0) {
-            return Err(self.ctx.error(
-                node,
-                format!("image '{}' has negative pixels", path.display()),
-            ));
-        }
-        let img = Arc::new(img);
-        self.image_cache.insert(key, img.clone());
-        Ok(img)
-    }
-
-    fn bsdf(&mut self, node: Node) -> Result<Material, SceneError> {
-        let ctx = self.ctx;
-        let ty = ctx.required_attr(node, "type")?;
-        if ty == "twosided" {
-            let inner: Vec<Node> = node.children().filter(|c| c.is_element()).collect();
-            if inner.len() != 1 || inner[0].tag_name().name() != "bsdf" {
-                return Err(ctx.error(node, "twosided must wrap exactly one inline <bsdf>"));
-            }
-            let mut m = self.bsdf(inner[0])?;
-            if matches!(
-                m.kind,
-                MaterialKind::Dielectric { .. } | MaterialKind::ThinDielectric { .. }
-            ) {
-                return Err(ctx.error(inner[0], "twosided cannot wrap a dielectric"));
-            }
-            if m.two_sided {
-                return Err(ctx.error(inner[0], "nested twosided"));
-            }
-            m.two_sided = true;
-            return Ok(m);
-        }
-        let props = Properties::new(ctx, node);
-        let ggx_alpha = |props: &Properties| -> Result<f32, SceneError> {
-            if let Some((d, n)) = props.string("distribution")? {
-                if d != "ggx" {
-                    return Err(ctx.error(
-                        n,
-                        format!("unsupported microfacet distribution '{d}' (only 'ggx')"),
-                    ));
-                }
-            }
-            if props.float_opt("alpha_u")?.is_some() {
-                return Err(ctx.error(node, "anisotropic roughness is not supported; use 'alpha'"));
-            }
-            props.float("alpha", 0.1)
-        };
-        let eta = |props: &Properties, int_default: f32| -> Result<f32, SceneError> {
-            let int_ior = props.float("int_ior", int_default)?;
-            let ext_ior = props.float("ext_ior", 1.000277)?;
-            if !(int_ior > 0.0 && ext_ior > 0.0) {
-                return Err(ctx.error(node, "IORs must be positive"));
-            }
-            Ok(int_ior / ext_ior)
-        };
-        let conductor = |props: &Properties| -> Result<ConductorFresnel, SceneError> {
-            let material = props.string("material")?;
-            let eta = props.rgb("eta")?;
-            let k = props.rgb("k")?;
-            match (material, eta, k) {
-                (Some((m, n)), _, _) if m != "none" => Err(ctx.error(
-                    n,
-                    format!("conductor preset '{m}' is not supported; give 'eta' and 'k' or material 'none'"),
-                )),
-                (Some(_), None, None) => Ok(ConductorFresnel::None),
-                (None, Some(eta), Some(k)) => {
-                    if eta.min_element() <= 0.0 || k.min_element() < 0.0 {
-                        return Err(ctx.error(node, "conductor 'eta' must be positive and 'k' non-negative"));
-                    }
-                    Ok(ConductorFresnel::Complex { eta, k })
-                }
-                (None, None, None) => Ok(ConductorFresnel::None),
-                _ => Err(ctx.error(node, "a conductor needs both 'eta' and 'k', or material 'none'")),
-            }
-        };
-        let kind = match ty {
-            "diffuse" => MaterialKind::Diffuse {
-                reflectance: self.spectrum_or_texture(&props, "reflectance", 0.5)?,
-            },
-            "roughconductor" => MaterialKind::RoughConductor {
-                alpha: ggx_alpha(&props)?,
-                fresnel: conductor(&props)?,
-                specular_reflectance: self.spectrum_or_texture(
-                    &props,
-                    "specular_reflectance",
-                    1.0,
-                )?,
-            },
-            "conductor" => MaterialKind::Conductor {
-                fresnel: conductor(&props)?,
-                specular_reflectance: self.spectrum_or_texture(
-                    &props,
-                    "specular_reflectance",
-                    1.0,
-                )?,
-            },
-            "roughplastic" | "plastic" => {
-                if props.boolean("nonlinear", false)? {
-                    return Err(ctx.error(node, "nonlinear=true is not supported"));
-                }
-                let diffuse = self.spectrum_or_texture(&props, "diffuse_reflectance", 0.5)?;
-                let eta = eta(&props, 1.49)?;
-                if ty == "plastic" {
-                    MaterialKind::Plastic {
-                        eta,
-                        diffuse_reflectance: diffuse,
-                    }
-                } else {
-                    MaterialKind::RoughPlastic {
-                        alpha: ggx_alpha(&props)?,
-                        eta,
-                        diffuse_reflectance: diffuse,
-                    }
-                }
-            }
-            "dielectric" => MaterialKind::Dielectric {
-                eta: eta(&props, 1.5046)?,
-            },
-            "thindielectric" => MaterialKind::ThinDielectric {
-                eta: eta(&props, 1.5046)?,
-            },
-            other => return Err(ctx.error(node, format!("unsupported bsdf type '{other}'"))),
-        };
-        props.warn_unused();
-        for child in node.children().filter(|c| c.is_element()) {
-            let tag = child.tag_name().name();
-            if !super::xml::PROPERTY_TAGS.contains(&tag) {
-                return Err(ctx.error(child, format!("unexpected <{tag}> inside a bsdf")));
-            }
-        }
-        Material::new(kind, false).map_err(|e| ctx.error(node, e))
     }
 
     fn shape(&mut self, node: Node) -> Result<(), SceneError> {

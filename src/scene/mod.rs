@@ -3,6 +3,7 @@
 
 pub mod error;
 mod loader;
+mod loader_materials;
 pub mod obj;
 pub mod shapes;
 pub mod xml;
