@@ -10,7 +10,7 @@ mod common;
 use common::*;
 use ltcguide::film::compare::compare_blocks;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
-use ltcguide::render::{Budget, Method, RenderOptions, render};
+use ltcguide::render::{Method, RenderOptions, render};
 use ltcguide::scene::load_scene;
 use std::path::Path;
 
@@ -19,54 +19,20 @@ fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool
         return;
     };
     let pt = render_spp(&scene, Method::Pt, 16, 3, true);
-    let opts = RenderOptions {
-        method,
-        budget: Budget::Spp(spp),
-        seed: 5,
-        threads: 0,
-        path: PathSettings {
-            nee,
-            max_depth: scene.max_depth.or(Some(10)),
-            roulette,
-        },
-        progress: false,
-        snapshot_times: Vec::new(),
-        bsdf_fraction: None,
-        product_kernel: Default::default(),
-        use_plan: true,
+    let path = PathSettings {
+        nee,
+        max_depth: scene.max_depth.or(Some(10)),
+        roulette,
     };
-    let guided = render(&scene, &opts).expect("render");
-    let c = guided.stats.counters;
+    let guided = render(&scene, &options(method, spp, 5, path)).expect("render");
     assert_eq!(
-        c.nonfinite_samples + c.invalid_scattering,
+        guided.stats.guards.total(),
         0,
-        "{name}: {c:?}"
+        "{name}: guards fired: {:?}",
+        guided.stats.guards
     );
     let cmp = compare_blocks(&guided.image, &guided.variance, &pt.image, &pt.variance, 32).unwrap();
-    eprintln!(
-        "{name} {method:?} vs pt: means {:.5} / {:.5}, z_global {:.2}, mean z² {:.2}, max |z| {:.2}, beyond 4σ {:.1} %",
-        cmp.mean_a,
-        cmp.mean_b,
-        cmp.z_global,
-        cmp.mean_z2(),
-        cmp.max_abs_z(),
-        100.0 * cmp.fraction_above(4.0)
-    );
-    assert!(
-        cmp.mean_z2() < 2.0,
-        "{name}: mean z² = {:.2}",
-        cmp.mean_z2()
-    );
-    assert!(
-        cmp.fraction_above(4.0) <= 0.03,
-        "{name}: {:.1} % beyond 4σ",
-        100.0 * cmp.fraction_above(4.0)
-    );
-    assert!(
-        cmp.z_global.abs() < 4.0,
-        "{name}: global z = {:.2}",
-        cmp.z_global
-    );
+    assert_blocks_agree(&format!("{name} {method:?} vs pt"), &cmp);
 }
 
 #[test]
@@ -137,20 +103,17 @@ fn a_fixed_seed_gives_a_fixed_image_whatever_the_thread_count() {
     for method in [Method::Pt, Method::Radiance] {
         let run = |threads: usize, seed: u64| {
             let opts = RenderOptions {
-                method,
-                budget: Budget::Spp(8),
-                seed,
                 threads,
-                path: PathSettings {
-                    nee: method == Method::Pt,
-                    max_depth: Some(6),
-                    roulette: RouletteMode::Adrrs,
-                },
-                progress: false,
-                snapshot_times: Vec::new(),
-                bsdf_fraction: None,
-                product_kernel: Default::default(),
-                use_plan: true,
+                ..options(
+                    method,
+                    8,
+                    seed,
+                    PathSettings {
+                        nee: method == Method::Pt,
+                        max_depth: Some(6),
+                        roulette: RouletteMode::Adrrs,
+                    },
+                )
             };
             render(&scene, &opts).unwrap().image.pixels
         };
@@ -217,22 +180,16 @@ fn adrrs_changes_no_expectation() {
     let scene = own_scene();
     for method in [Method::Radiance, Method::Product] {
         let run = |roulette: RouletteMode, seed: u64| {
-            let opts = RenderOptions {
+            let opts = options(
                 method,
-                budget: Budget::Spp(32),
+                32,
                 seed,
-                threads: 0,
-                path: PathSettings {
+                PathSettings {
                     nee: false,
                     max_depth: scene.max_depth,
                     roulette,
                 },
-                progress: false,
-                snapshot_times: Vec::new(),
-                bsdf_fraction: None,
-                product_kernel: Default::default(),
-                use_plan: true,
-            };
+            );
             render(&scene, &opts).unwrap()
         };
         let with = run(RouletteMode::Adrrs, 1);

@@ -47,23 +47,12 @@ pub fn reference(scene_dir: &Path) -> (Image, u32) {
 }
 
 pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool) -> RenderResult {
-    let opts = RenderOptions {
-        method,
-        budget: Budget::Spp(spp),
-        seed,
-        threads: 0,
-        path: PathSettings {
-            nee,
-            max_depth: scene.max_depth.or(Some(10)),
-            roulette: RouletteMode::Classic,
-        },
-        progress: false,
-        snapshot_times: Vec::new(),
-        bsdf_fraction: None,
-        product_kernel: Default::default(),
-        use_plan: true,
+    let path = PathSettings {
+        nee,
+        max_depth: scene.max_depth.or(Some(10)),
+        roulette: RouletteMode::Classic,
     };
-    render(scene, &opts).expect("render")
+    render(scene, &options(method, spp, seed, path)).expect("render")
 }
 
 /// Block comparison of a render against a noisy reference of `ref_spp`
@@ -79,4 +68,51 @@ pub fn compare_with_reference(
     let scale = result.stats.spp as f32 / ref_spp as f32;
     let var_ref: Vec<f32> = var.iter().map(|v| v * scale).collect();
     compare_blocks(&result.image, var, reference, &var_ref, block).expect("same size")
+}
+
+/// Asserts that two estimates of one image agree block by block (see
+/// `pack_reference.rs` for the derivation of the three criteria), after
+/// printing the statistics.
+pub fn assert_blocks_agree(label: &str, cmp: &BlockComparison) {
+    eprintln!(
+        "{label}: means {:.5} / {:.5}, z_global {:.2}, mean z² {:.2}, max |z| {:.2}, beyond 4σ {:.1} %, {} blocks",
+        cmp.mean_a,
+        cmp.mean_b,
+        cmp.z_global,
+        cmp.mean_z2(),
+        cmp.max_abs_z(),
+        100.0 * cmp.fraction_above(4.0),
+        cmp.z.len()
+    );
+    assert!(
+        cmp.mean_z2() < 2.0,
+        "{label}: mean z² = {:.2}",
+        cmp.mean_z2()
+    );
+    assert!(
+        cmp.fraction_above(4.0) <= 0.03,
+        "{label}: {:.1} % of blocks beyond 4σ",
+        100.0 * cmp.fraction_above(4.0)
+    );
+    assert!(
+        cmp.z_global.abs() < 4.0,
+        "{label}: global z = {:.2}",
+        cmp.z_global
+    );
+}
+
+/// Render options for tests: everything at its default but what varies.
+pub fn options(method: Method, spp: u32, seed: u64, path: PathSettings) -> RenderOptions {
+    RenderOptions {
+        method,
+        budget: Budget::Spp(spp),
+        seed,
+        threads: 0,
+        path,
+        progress: false,
+        snapshot_times: Vec::new(),
+        bsdf_fraction: None,
+        product_kernel: Default::default(),
+        use_plan: true,
+    }
 }
