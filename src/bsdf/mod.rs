@@ -354,6 +354,13 @@ impl Bsdf {
     /// (eval, pdf) in one call, sharing the microfacet terms.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
+        // The same guards as `eval` and `pdf`: never NaN, Inf or negative.
+        let (f, p) = self.eval_pdf_unguarded(wo, wi);
+        (sanitize(f), if p.is_finite() { p.max(0.0) } else { 0.0 })
+    }
+
+    #[inline]
+    fn eval_pdf_unguarded(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
         match self.model {
             BsdfModel::RoughConductor {
                 alpha,

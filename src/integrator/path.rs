@@ -216,8 +216,8 @@ pub fn trace_path<G: Guide>(
                     break;
                 };
                 let wi = it.frame.to_local(dir);
-                let f = bsdf.eval(wo, wi);
-                let pb = bsdf.pdf(wo, wi);
+                // One evaluation for both: rough plastic computes them together.
+                let (f, pb) = bsdf.eval_pdf(wo, wi);
                 let p = a * pb + (1.0 - a) * pg;
                 if !(p > 0.0 && p.is_finite()) {
                     counters.invalid_scattering += 1;
