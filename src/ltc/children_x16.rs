@@ -418,13 +418,7 @@ pub fn diffuse_children_x16(normal: Vec3, cell: Cell) -> [f32; 4] {
     let n_child = 1u64 << (cell.depth + 1);
     let h = 1.0 / n_child as f32;
     let dz = 2.0 * h;
-    let (u, w) = ((4 * cell.ix) as f32, (4 * cell.iy) as f32);
-    let hq = 0.5 * h;
-    let zc = [
-        ((u + 1.0) * hq).mul_add(2.0, -1.0),
-        ((u + 3.0) * hq).mul_add(2.0, -1.0),
-    ];
-    let vc = [(w + 1.0) * hq, (w + 3.0) * hq];
+    let (zc, vc) = child_centres(cell);
     let zl = f32x16::from(std::array::from_fn::<f32, 16, _>(|l| zc[l & 1]));
     let vl = f32x16::from(std::array::from_fn::<f32, 16, _>(|l| vc[(l >> 1) & 1]));
     let off = splat(dz * (0.5 / 3f32.sqrt()));

@@ -88,14 +88,8 @@ pub fn children_form_factors_f32(cell: Cell) -> [Vec3; 4] {
     let n_child = 1u64 << (cell.depth + 1);
     let h = 1.0 / n_child as f32;
     let dz = 2.0 * h;
-    let (u, w) = ((4 * cell.ix) as f32, (4 * cell.iy) as f32);
-    let hq = 0.5 * h;
     // Child centres: z by the u bit, azimuth (turns) by the v bit.
-    let zc = [
-        ((u + 1.0) * hq).mul_add(2.0, -1.0),
-        ((u + 3.0) * hq).mul_add(2.0, -1.0),
-    ];
-    let vc = [(w + 1.0) * hq, (w + 3.0) * hq];
+    let (zc, vc) = super::children::child_centres(cell);
     let off = dz * (0.5 / 3f32.sqrt());
     let f = |z: f32| (1.0 - z * z).max(0.0).sqrt();
     let g = zc.map(|z| 0.5 * dz * (f(z - off) + f(z + off)));
