@@ -78,16 +78,7 @@ impl RoughConductor {
         // normal, so the returned pdf is bit-identical to `pdf(wo, wi)` (MIS
         // needs that; at α = 1e-4 the two would differ by rounding).
         let (value, pdf) = self.eval_pdf(wo, wi);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            weight: value / pdf,
-            pdf,
-            is_delta: false,
-            eta: 1.0,
-        })
+        BsdfSample::non_delta(wi, value, pdf)
     }
 }
 

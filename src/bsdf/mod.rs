@@ -114,6 +114,25 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
+impl BsdfSample {
+    /// A non-delta sample from its evaluated value f·cos and pdf, both
+    /// computed from (wo, wi) so that the pdf is bit-identical to
+    /// `Bsdf::pdf(wo, wi)`; `None` when the pdf vanishes.
+    #[inline]
+    pub fn non_delta(wi: Vec3, value: Spectrum, pdf: f32) -> Option<BsdfSample> {
+        if pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: value / pdf,
+            pdf,
+            is_delta: false,
+            eta: 1.0,
+        })
+    }
+}
+
 /// A GGX lobe of the product decomposition: f·cos ≈ `weight` × (GGX with
 /// Fresnel 1 and Smith shadowing)·cos, for the given `alpha`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -117,16 +117,7 @@ impl RoughPlastic {
             return None;
         }
         let (value, pdf) = self.eval_pdf(wo, wi);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            weight: value / pdf,
-            pdf,
-            is_delta: false,
-            eta: 1.0,
-        })
+        BsdfSample::non_delta(wi, value, pdf)
     }
 }
 
