@@ -120,6 +120,10 @@ struct RenderArgs {
     /// vertex (guided methods) as OUT-alpha.exr and a false-colour PNG.
     #[arg(long, value_enum)]
     aov: Vec<Aov>,
+    /// Run every part of the method even where the per-scene plan would
+    /// leave it out or fall back to unguided path tracing.
+    #[arg(long)]
+    no_plan: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -240,7 +244,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
-        use_plan: true,
+        use_plan: !args.no_plan,
     };
     if let Some(a) = args.bsdf_fraction {
         if !(0.0..=1.0).contains(&a) {
