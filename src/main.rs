@@ -1,6 +1,7 @@
 //! The `ltcguide` command line.
 
 use clap::{Args, Parser, Subcommand};
+use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::{read_image, write_rgb};
 use ltcguide::film::metrics::{mae, relmse};
 use ltcguide::film::png_io::write_png;
@@ -67,6 +68,9 @@ struct CompareArgs {
     runs: u32,
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Which methods use next-event estimation.
+    #[arg(long, value_enum, default_value_t = NeeChoice::Paper)]
+    nee: NeeChoice,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -364,6 +368,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         threads: args.threads,
         out_dir: args.out.clone(),
         path_for: default_path_settings,
+        nee: args.nee,
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;

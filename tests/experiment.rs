@@ -58,6 +58,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         threads: 0,
         out_dir: dir.clone(),
         path_for: settings,
+        nee: ltcguide::experiment::compare::NeeChoice::Paper,
         progress: false,
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -119,6 +120,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
         threads: 0,
         out_dir: dir.clone(),
         path_for: settings,
+        nee: ltcguide::experiment::compare::NeeChoice::Paper,
         progress: false,
     };
     let wrong = Image {
@@ -151,4 +153,42 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("reference is 10×10"));
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn compare_nee_choice_reaches_every_method() {
+    let scene = tiny();
+    let reference = Image {
+        width: 64,
+        height: 64,
+        pixels: vec![glam::Vec3::splat(0.5); 64 * 64],
+    };
+    for (choice, expected) in [
+        (ltcguide::experiment::compare::NeeChoice::All, "nee on"),
+        (ltcguide::experiment::compare::NeeChoice::None, "nee off"),
+    ] {
+        let dir = std::env::temp_dir().join(format!(
+            "ltcguide-compare-nee-{expected}-{}",
+            std::process::id()
+        ));
+        let opts = CompareOptions {
+            methods: vec![Method::Pt, Method::Radiance],
+            seconds: 0.2,
+            runs: 1,
+            threads: 0,
+            out_dir: dir.clone(),
+            path_for: settings,
+            nee: choice,
+            progress: false,
+        };
+        let outcome = run_compare(&scene, &reference, &opts).unwrap();
+        let plans: Vec<&str> = outcome
+            .summary
+            .lines()
+            .filter(|l| l.contains("plan: method"))
+            .collect();
+        assert_eq!(plans.len(), 2, "{}", outcome.summary);
+        assert!(plans.iter().all(|l| l.contains(expected)), "{plans:?}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -25,7 +25,22 @@ pub struct CompareOptions {
     pub out_dir: PathBuf,
     /// Path settings per method (NEE and roulette differ by method).
     pub path_for: fn(&Scene, Method) -> PathSettings,
+    /// Overrides `path_for`'s NEE choice.
+    pub nee: NeeChoice,
     pub progress: bool,
+}
+
+/// Which methods use next-event estimation in a comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum NeeChoice {
+    /// As `path_for` says (the paper's setting: pt with NEE, the guided
+    /// methods without).
+    Paper,
+    /// Every method with NEE (MIS with BSDF and guide sampling): what a
+    /// production renderer would run.
+    All,
+    /// No method uses NEE.
+    None,
 }
 
 /// What `compare` found, for callers that build reports.
@@ -78,7 +93,14 @@ pub fn run_compare(
                 budget: Budget::Seconds(opts.seconds),
                 seed: 1000 + run as u64,
                 threads: opts.threads,
-                path: (opts.path_for)(scene, method),
+                path: PathSettings {
+                    nee: match opts.nee {
+                        NeeChoice::Paper => (opts.path_for)(scene, method).nee,
+                        NeeChoice::All => true,
+                        NeeChoice::None => false,
+                    },
+                    ..(opts.path_for)(scene, method)
+                },
                 progress: opts.progress,
                 snapshot_times: snapshot_times(opts.seconds),
                 bsdf_fraction: None,

@@ -135,11 +135,17 @@ impl RecordBuffer {
     }
 }
 
+/// One Adam sample: (F/p, p_bsdf, p_guide, α used).
+type AdamSample = [f32; 4];
+
 /// Work for one leaf: directional splats and Adam samples, in record order.
+/// The Adam inputs are copied here rather than indexed: the leaves visit
+/// the records in scattered order, and fetching whole records by index
+/// cost more than the Adam steps themselves.
 #[derive(Default)]
 struct LeafWork {
     splats: Vec<(Vec2, f32)>,
-    adam: Vec<u32>,
+    adam: Vec<AdamSample>,
 }
 
 /// Records all buffers (in index order) into `tree`'s recording quadtrees
@@ -151,7 +157,7 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
     let mut work: Vec<LeafWork> = (0..tree.leaves().len())
         .map(|_| LeafWork::default())
         .collect();
-    for (i, r) in records.iter().enumerate() {
+    for r in &records {
         match validate(r) {
             Err(RecordReject::NonFinite) => stats.rejected_non_finite += 1,
             Err(RecordReject::ZeroPdf) => stats.rejected_zero_pdf += 1,
@@ -168,7 +174,9 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
                     .splats
                     .push((dir_to_square(dir), r.radiance));
                 if r.guided {
-                    work[own as usize].adam.push(i as u32);
+                    work[own as usize]
+                        .adam
+                        .push([r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]);
                 }
             }
         }
@@ -184,16 +192,10 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
                 let _ = leaf.recording.record_box(p, v);
             }
             let mut s = AdamStats::default();
-            for &i in &w.adam {
-                let r = records[i as usize];
-                let _: Result<(), NonFiniteGradient> = leaf.fraction.step_sample(
-                    &adam_cfg,
-                    r.product,
-                    r.bsdf_pdf,
-                    r.guide_pdf,
-                    r.alpha,
-                    &mut s,
-                );
+            for &[product, bsdf_pdf, guide_pdf, alpha] in &w.adam {
+                let _: Result<(), NonFiniteGradient> = leaf
+                    .fraction
+                    .step_sample(&adam_cfg, product, bsdf_pdf, guide_pdf, alpha, &mut s);
             }
             s
         })
