@@ -34,6 +34,7 @@ fn main() {
         bsdf_fraction: None,
         product_kernel: Default::default(),
         use_plan: false,
+        ..Default::default()
     };
     let res = render(&scene, &opts).unwrap();
     let tree = res.tree.unwrap();

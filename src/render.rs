@@ -141,6 +141,32 @@ pub struct RenderOptions {
     /// Follow the per-scene plan (and drop guiding where it does not pay).
     /// Off only for measuring what the plan saves.
     pub use_plan: bool,
+    /// Guided methods: c in the SD-tree's spatial split threshold c·√(2^k);
+    /// `None`: scaled to the image size, see
+    /// [`crate::guiding::sdtree::default_split_threshold`].
+    pub spatial_threshold: Option<f64>,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            method: Method::Pt,
+            budget: Budget::Spp(16),
+            seed: 0,
+            threads: 0,
+            path: PathSettings {
+                nee: true,
+                max_depth: Some(10),
+                roulette: crate::integrator::path::RouletteMode::Classic,
+            },
+            progress: false,
+            snapshot_times: Vec::new(),
+            bsdf_fraction: None,
+            product_kernel: ProductKernel::default(),
+            use_plan: true,
+            spatial_threshold: None,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]

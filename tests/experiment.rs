@@ -45,6 +45,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
             bsdf_fraction: None,
             product_kernel: Default::default(),
             use_plan: true,
+            ..Default::default()
         },
     )
     .unwrap()

@@ -332,6 +332,7 @@ fn stiff_scene_renders_finite_and_methods_agree() {
             bsdf_fraction: None,
             product_kernel: ProductKernel::Simd,
             use_plan: true,
+            ..Default::default()
         };
         render(&scene, &opts).unwrap()
     };

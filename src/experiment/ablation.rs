@@ -51,6 +51,7 @@ pub fn run_ablation(
                 bsdf_fraction: None,
                 product_kernel: kernel,
                 use_plan,
+                ..Default::default()
             };
             let r = render(scene, &opts)?;
             Ok(AblationRow {

@@ -106,6 +106,7 @@ pub fn run_compare(
                 bsdf_fraction: None,
                 product_kernel: Default::default(),
                 use_plan: true,
+                ..Default::default()
             };
             let result = render(scene, &ropts)?;
             for s in &result.snapshots {

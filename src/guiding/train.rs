@@ -207,7 +207,13 @@ pub fn render_guided<M: WeightModel>(
     bar: Option<&indicatif::ProgressBar>,
 ) -> GuidedOutput {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, SdTreeConfig::default());
+    let config = SdTreeConfig {
+        split_threshold: opts
+            .spatial_threshold
+            .unwrap_or_else(|| super::sdtree::default_split_threshold(w * h)),
+        ..SdTreeConfig::default()
+    };
+    let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, config);
     let mut schedule = Schedule::new(match opts.budget {
         Budget::Spp(n) => ScheduleBudget::Spp(n as u64),
         Budget::Seconds(s) => ScheduleBudget::Seconds(s),

@@ -114,5 +114,6 @@ pub fn options(method: Method, spp: u32, seed: u64, path: PathSettings) -> Rende
         bsdf_fraction: None,
         product_kernel: Default::default(),
         use_plan: true,
+        ..Default::default()
     }
 }
