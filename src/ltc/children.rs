@@ -32,12 +32,13 @@
 //! and counted ([`nonfinite_guard_count`]).
 
 use super::children_x16;
+use super::coarse::coarse_children_scalar;
 use super::fast_math::{cell_solid_angle, dyadic_sincos};
 use super::form_factor;
 use super::level1::level1_children;
 use super::polygon::{
     MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
-    is_plain_quad_depth, polygon_edge_sum, transform_rows, transformed_cached_polygon,
+    is_plain_quad_depth, transform_rows, transformed_cached_polygon,
 };
 use super::quad::quad_children_scalar;
 use super::sphere_clip::clipped_integral;
@@ -223,24 +224,12 @@ impl GlossyLtc {
         if depth >= deep_depth {
             return self.children_deep(cell);
         }
-        let (f, sides) = if is_plain_quad_depth(depth) {
-            quad_children_scalar(self, cell)
+        if is_plain_quad_depth(depth) {
+            let (f, sides) = quad_children_scalar(self, cell);
+            self.finish_children(cell, f, sides, None)
         } else {
-            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
-            let mut sides = [HorizonSide::Above; 4];
-            let mut exact = [0.0f32; 4];
-            let f = std::array::from_fn(|k| {
-                let n = transformed_cached_polygon(cell.child(k), &self.rows, &mut buf);
-                let poly = &buf[..n];
-                sides[k] = HorizonSide::of_vertices(poly);
-                if sides[k] == HorizonSide::Crossing {
-                    exact[k] = clipped_edge_sum_z(poly);
-                }
-                polygon_edge_sum(poly)
-            });
-            return self.finish_children(cell, f, sides, Some(exact));
-        };
-        self.finish_children(cell, f, sides, None)
+            coarse_children_scalar(self, cell)
+        }
     }
 
     /// Integrals from the 4 children's edge sums (2π·F, winding as built):

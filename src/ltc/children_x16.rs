@@ -9,10 +9,11 @@
 //! Coarse nodes whose children have subdivided parallels batch their edges
 //! 16 at a time; deep nodes use the shared density × solid-angle path.
 
-use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, HorizonSide, child_centres};
+use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, child_centres};
+use super::coarse_x16::coarse_children_x16;
 use super::fast_math::{cell_solid_angle, dyadic_sincos};
 use super::level1::level1_children_x16;
-use super::polygon::{cached_cell_polygon, clipped_sum_z_from_edges, is_plain_quad_depth};
+use super::polygon::{cached_cell_polygon, is_plain_quad_depth};
 use super::quad_x16::quad_children_x16;
 use super::simd::{
     edge_vectors, heights_and_radii, load16, rotated_sincos, sincos_turns, splat, transform,
@@ -105,87 +106,6 @@ pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> O
     }))
 }
 
-/// Room for the closed polygons of 4 children at level 2 (4 × 35 points)
-/// plus one batch of padding.
-const MAX_POINTS: usize = 4 * 35 + 20;
-
-/// Edge sums of children with subdivided parallels. The 4 closed polygons
-/// are laid out one after the other in structure-of-arrays form, mapped
-/// through A 16 points at a time, and their edges (P[j], P[j+1]) taken 16 at
-/// a time with two shifted loads; each child accumulates its own lanes in
-/// polygon order, like the scalar kernel.
-pub fn children_edge_sums_batched(
-    g: &GlossyLtc,
-    cell: Cell,
-) -> ([Vec3; 4], [HorizonSide; 4], [f32; 4]) {
-    let mut p = [[0.0f32; MAX_POINTS]; 3];
-    let mut start = [0usize; 5];
-    let mut len = 0;
-    for (k, s) in start.iter_mut().take(4).enumerate() {
-        let poly = cached_cell_polygon(cell.child(k)).expect("coarse cell");
-        *s = len;
-        for v in poly.iter().chain(std::iter::once(&poly[0])) {
-            if len < MAX_POINTS - 17 {
-                p[0][len] = v.x;
-                p[1][len] = v.y;
-                p[2][len] = v.z;
-                len += 1;
-            }
-        }
-    }
-    start[4] = len;
-    // Map every point into cosine space, 16 at a time.
-    let mut t = [[0.0f32; MAX_POINTS]; 3];
-    let load = |a: &[f32; MAX_POINTS], i: usize| {
-        f32x16::from(<[f32; 16]>::try_from(&a[i..i + 16]).unwrap())
-    };
-    let mut i = 0;
-    while i < len {
-        let q = transform(&g.rows, load(&p[0], i), load(&p[1], i), load(&p[2], i));
-        for c in 0..3 {
-            t[c][i..i + 16].copy_from_slice(&q[c].to_array());
-        }
-        i += 16;
-    }
-    let mut sums = [Vec3::ZERO; 4];
-    let mut ez = [0.0f32; MAX_POINTS];
-    let mut j = 0;
-    while j + 1 < len {
-        let a = [load(&t[0], j), load(&t[1], j), load(&t[2], j)];
-        let b = [load(&t[0], j + 1), load(&t[1], j + 1), load(&t[2], j + 1)];
-        let e = edge_vectors(a, b);
-        let (x, y, z) = (e[0].to_array(), e[1].to_array(), e[2].to_array());
-        ez[j..j + 16].copy_from_slice(&z);
-        for (k, sum) in sums.iter_mut().enumerate() {
-            // Edges of child k start at points start[k]..start[k+1]−1.
-            let lo = start[k].max(j);
-            let hi = (start[k + 1] - 1).min(j + 16);
-            for l in lo..hi {
-                *sum += Vec3::new(x[l - j], y[l - j], z[l - j]);
-            }
-        }
-        j += 16;
-    }
-    let mut sides = [HorizonSide::Above; 4];
-    let mut exact = [0.0f32; 4];
-    for k in 0..4 {
-        let (lo, hi) = (start[k], start[k + 1] - 1);
-        let zs = &t[2][lo..hi];
-        sides[k] = if zs.iter().all(|&z| z >= 0.0) {
-            HorizonSide::Above
-        } else if zs.iter().all(|&z| z <= 0.0) {
-            HorizonSide::Below
-        } else {
-            HorizonSide::Crossing
-        };
-        if sides[k] == HorizonSide::Crossing {
-            exact[k] =
-                clipped_sum_z_from_edges(&t[0][lo..hi], &t[1][lo..hi], &t[2][lo..hi], &ez[lo..hi]);
-        }
-    }
-    (sums, sides, exact)
-}
-
 /// D(centre)·Ω for the 4 children in lanes 0..4, with the scalar
 /// [`GlossyLtc::children_deep`]'s operations.
 pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
@@ -265,7 +185,6 @@ pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     if is_plain_quad_depth(depth) {
         quad_children_x16(g, cell)
     } else {
-        let (sums, sides, exact) = children_edge_sums_batched(g, cell);
-        g.finish_children(cell, sums, sides, Some(exact))
+        coarse_children_x16(g, cell)
     }
 }

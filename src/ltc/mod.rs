@@ -30,6 +30,8 @@
 
 pub mod children;
 pub mod children_x16;
+pub mod coarse;
+pub mod coarse_x16;
 pub mod fast_math;
 pub mod fit;
 pub mod form_factor;

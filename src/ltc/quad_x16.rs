@@ -10,8 +10,7 @@
 
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::dyadic_sincos;
-use super::fast_math::{RSQRT_FLOOR, rsqrt_x16, theta_over_sin_x16};
-use super::simd::{heights_and_radii, permute, rotated_sincos, splat, transform};
+use super::simd::{heights_and_radii, permute, rotated_sincos, splat, unit_edges, unit_vertices};
 use crate::directional::Cell;
 use glam::Vec3;
 use wide::f32x16;
@@ -96,10 +95,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         dyadic_sincos(1, d),
         f32x16::from(GRID_SIDE),
     );
-    let t = transform(&g.rows, r * c, r * s, z);
-    let n2 = t[2].mul_add(t[2], t[1].mul_add(t[1], t[0] * t[0]));
-    let inv = rsqrt_x16(n2.fast_max(splat(RSQRT_FLOOR)));
-    let u = [t[0] * inv, t[1] * inv, t[2] * inv];
+    let u = unit_vertices(&g.rows, r * c, r * s, z);
     let above = u[2].simd_ge(splat(0.0)).to_bitmask();
     let below = u[2].simd_le(splat(0.0)).to_bitmask();
     let a = [
@@ -112,11 +108,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         permute(u[1], &PERM_B),
         permute(u[2], &PERM_B),
     ];
-    let cx = a[1] * b[2] - a[2] * b[1];
-    let cy = a[2] * b[0] - a[0] * b[2];
-    let cz = a[0] * b[1] - a[1] * b[0];
-    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
-    let k = theta_over_sin_x16(d, || cz.mul_add(cz, cy.mul_add(cy, cx * cx)));
+    let ([cx, cy, cz], k) = unit_edges(a, b);
     let scale = g.orientation * (0.5 / std::f32::consts::PI);
     if above & ALL_CORNERS == ALL_CORNERS {
         // Every child above the horizon: F_z is the integral.

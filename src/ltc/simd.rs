@@ -145,3 +145,37 @@ pub fn heights_and_radii(u: f32, h: f32, i: f32x16) -> (f32x16, f32x16) {
         .sqrt();
     (z, r)
 }
+
+/// World directions mapped by `rows` and normalised: the operations of
+/// [`super::quad::unit_cosine_vertex`].
+#[inline(always)]
+pub fn unit_vertices(rows: &[[f32; 3]; 3], x: f32x16, y: f32x16, z: f32x16) -> [f32x16; 3] {
+    use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
+    let t = transform(rows, x, y, z);
+    let n2 = t[2].mul_add(t[2], t[1].mul_add(t[1], t[0] * t[0]));
+    let inv = rsqrt_x16(n2.fast_max(splat(RSQRT_FLOOR)));
+    [t[0] * inv, t[1] * inv, t[2] * inv]
+}
+
+/// a×b and θ/sin θ of edges between unit vectors: the operations of
+/// [`super::quad::unit_edge`].
+#[inline(always)]
+pub fn unit_edges(a: [f32x16; 3], b: [f32x16; 3]) -> ([f32x16; 3], f32x16) {
+    let cx = a[1] * b[2] - a[2] * b[1];
+    let cy = a[2] * b[0] - a[0] * b[2];
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
+    let k = super::fast_math::theta_over_sin_x16(d, || cz.mul_add(cz, cy.mul_add(cy, cx * cx)));
+    ([cx, cy, cz], k)
+}
+
+/// [`super::coarse::horizon_point`] on 16 lanes.
+#[inline(always)]
+pub fn horizon_points(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
+    use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
+    let t = a[2] / (a[2] - b[2]);
+    let x = (b[0] - a[0]).mul_add(t, a[0]);
+    let y = (b[1] - a[1]).mul_add(t, a[1]);
+    let inv = rsqrt_x16(y.mul_add(y, x * x).fast_max(splat(RSQRT_FLOOR)));
+    [x * inv, y * inv, splat(0.0)]
+}
