@@ -76,24 +76,28 @@ pub fn rsqrt_x16(x: f32x16) -> f32x16 {
     y * (-hx).mul_add(y * y, f32x16::splat(1.5))
 }
 
-/// θ/sin θ on [0, 1] (the polynomial alone).
+/// θ/sin θ on [0, 1] (the polynomial alone), in Estrin's form: 12
+/// operations instead of Horner's 9, but a dependency chain of 5 instead
+/// of 9, which matters because a descent waits for each level's result.
 #[inline(always)]
 pub fn theta_over_sin_unit(x: f32) -> f32 {
-    let mut p = THETA_OVER_SIN[9];
-    for k in (0..9).rev() {
-        p = p.mul_add(x, THETA_OVER_SIN[k]);
-    }
-    p
+    let c = THETA_OVER_SIN;
+    let (x2, pair) = (x * x, |i: usize| c[i + 1].mul_add(x, c[i]));
+    let x4 = x2 * x2;
+    let lo = pair(2).mul_add(x2, pair(0));
+    let hi = pair(6).mul_add(x2, pair(4));
+    pair(8).mul_add(x4 * x4, hi.mul_add(x4, lo))
 }
 
 /// [`theta_over_sin_unit`] on 16 lanes.
 #[inline(always)]
 pub fn theta_over_sin_unit_x16(x: f32x16) -> f32x16 {
-    let mut p = f32x16::splat(THETA_OVER_SIN[9]);
-    for k in (0..9).rev() {
-        p = p.mul_add(x, f32x16::splat(THETA_OVER_SIN[k]));
-    }
-    p
+    let c = THETA_OVER_SIN.map(f32x16::splat);
+    let (x2, pair) = (x * x, |i: usize| c[i + 1].mul_add(x, c[i]));
+    let x4 = x2 * x2;
+    let lo = pair(2).mul_add(x2, pair(0));
+    let hi = pair(6).mul_add(x2, pair(4));
+    pair(8).mul_add(x4 * x4, hi.mul_add(x4, lo))
 }
 
 /// θ/sin θ of an edge between unit vectors with dot product `d` and cross
