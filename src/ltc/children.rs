@@ -32,12 +32,15 @@
 //! and counted ([`nonfinite_guard_count`]).
 
 use super::children_x16;
+use super::coarse::coarse_children_scalar;
+use super::fast_math::{cell_solid_angle, dyadic_sincos};
 use super::form_factor;
+use super::level1::level1_children;
 use super::polygon::{
     MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
-    edge_vector, is_plain_quad_depth, polygon_edge_sum, sincos_turns, transform_rows,
-    transformed_cached_polygon,
+    is_plain_quad_depth, transform_rows, transformed_cached_polygon,
 };
+use super::quad::quad_children_scalar;
 use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
 use crate::bsdf::Lobes;
@@ -215,29 +218,18 @@ impl GlossyLtc {
     pub fn children_scalar(&self, cell: Cell, deep_depth: u32) -> [f32; 4] {
         let depth = cell.depth + 1;
         if depth <= EXACT_CLIP_DEPTH {
-            return self.children_exact_f32(cell);
+            return level1_children(&self.rows, self.orientation)
+                .unwrap_or_else(|| self.children_exact_f32(cell));
         }
         if depth >= deep_depth {
             return self.children_deep(cell);
         }
-        let (f, sides) = if is_plain_quad_depth(depth) {
-            self.children_edge_sums_grid(cell)
+        if is_plain_quad_depth(depth) {
+            let (f, sides) = quad_children_scalar(self, cell);
+            self.finish_children(cell, f, sides, None)
         } else {
-            let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
-            let mut sides = [HorizonSide::Above; 4];
-            let mut exact = [0.0f32; 4];
-            let f = std::array::from_fn(|k| {
-                let n = transformed_cached_polygon(cell.child(k), &self.rows, &mut buf);
-                let poly = &buf[..n];
-                sides[k] = HorizonSide::of_vertices(poly);
-                if sides[k] == HorizonSide::Crossing {
-                    exact[k] = clipped_edge_sum_z(poly);
-                }
-                polygon_edge_sum(poly)
-            });
-            return self.finish_children(cell, f, sides, Some(exact));
-        };
-        self.finish_children(cell, f, sides, None)
+            coarse_children_scalar(self, cell)
+        }
     }
 
     /// Integrals from the 4 children's edge sums (2π·F, winding as built):
@@ -271,62 +263,34 @@ impl GlossyLtc {
         })
     }
 
-    /// Edge sums of the 4 children of a node whose children are plain quads:
-    /// 9 shared vertices, 12 unique edges (interior ones used twice, once
-    /// reversed).
-    pub fn children_edge_sums_grid(&self, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
-        let (z, v) = child_grid(cell);
-        let sc = v.map(sincos_turns);
-        let r = z.map(|z| (1.0 - z * z).max(0.0).sqrt());
-        let mut p = [[Vec3::ZERO; 3]; 3];
-        for (zi, row) in p.iter_mut().enumerate() {
-            for (vi, q) in row.iter_mut().enumerate() {
-                let (s, c) = sc[vi];
-                *q = transform_rows(&self.rows, Vec3::new(r[zi] * c, r[zi] * s, z[zi]));
-            }
-        }
-        // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
-        let par = |zi: usize, vi: usize| edge_vector(p[zi][vi], p[zi][vi + 1]);
-        let mer = |vi: usize, zi: usize| edge_vector(p[zi][vi], p[zi + 1][vi]);
-        let pe = [
-            [par(0, 0), par(0, 1)],
-            [par(1, 0), par(1, 1)],
-            [par(2, 0), par(2, 1)],
-        ];
-        let me = [
-            [mer(0, 0), mer(0, 1)],
-            [mer(1, 0), mer(1, 1)],
-            [mer(2, 0), mer(2, 1)],
-        ];
-        let sums = std::array::from_fn(|k| {
-            let (iu, iv) = (k & 1, k >> 1);
-            let e0 = pe[iu][iv];
-            let e1 = me[iv + 1][iu];
-            let e2 = -pe[iu + 1][iv];
-            let e3 = -me[iv][iu];
-            (e0 + e1) + (e2 + e3)
-        });
-        let sides = std::array::from_fn(|k| {
-            let (iu, iv) = (k & 1, k >> 1);
-            HorizonSide::of_vertices(&[p[iu][iv], p[iu][iv + 1], p[iu + 1][iv + 1], p[iu + 1][iv]])
-        });
-        (sums, sides)
-    }
-
     /// D(centre)·Ω for the 4 children.
     pub fn children_deep(&self, cell: Cell) -> [f32; 4] {
-        let omega = cell.child(0).solid_angle() as f32;
-        let (z, v) = child_centres(cell);
-        // Two heights and two azimuths serve the four centres.
-        let r = z.map(|z| (1.0 - z * z).max(0.0).sqrt());
-        let sc = v.map(sincos_turns);
-        let d = |k: usize| {
-            let (s, c) = sc[k >> 1];
-            let rz = r[k & 1];
-            self.density(Vec3::new(rz * c, rz * s, z[k & 1])) * omega
-        };
-        [d(0), d(1), d(2), d(3)]
+        let omega = cell_solid_angle(cell.depth + 1);
+        let (z, r, s, c) = deep_centres(cell);
+        std::array::from_fn(|k| {
+            let (iu, iv) = (k & 1, k >> 1);
+            self.density(Vec3::new(r[iu] * c[iv], r[iu] * s[iv], z[iu])) * omega
+        })
     }
+}
+
+/// Heights, radii and sin, cos of the azimuths of the children's centres
+/// (heights by the u bit, azimuths by the v bit), shared by the scalar and
+/// wide deep kernels.
+#[inline]
+pub fn deep_centres(cell: Cell) -> ([f32; 2], [f32; 2], [f32; 2], [f32; 2]) {
+    let (z, _) = child_centres(cell);
+    let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
+    // The node's centre meridian rotated by half a child's width either
+    // way, as in `quad::node_grid`.
+    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
+    let (ss, cs) = dyadic_sincos(1, cell.depth + 2);
+    (
+        z,
+        r,
+        [s1.mul_add(cs, -(c1 * ss)), s1.mul_add(cs, c1 * ss)],
+        [c1.mul_add(cs, s1 * ss), c1.mul_add(cs, -(s1 * ss))],
+    )
 }
 
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
@@ -559,7 +523,9 @@ impl ShadingLtc {
     /// above the horizon, sphere-clipped across it.
     pub fn diffuse_form_factors(&self, cell: Cell) -> [f32; 4] {
         if cell.depth < EXACT_CLIP_DEPTH {
-            return exact_children_f32(&self.diffuse_rows, self.diffuse_orientation, cell);
+            return level1_children(&self.diffuse_rows, self.diffuse_orientation).unwrap_or_else(
+                || exact_children_f32(&self.diffuse_rows, self.diffuse_orientation, cell),
+            );
         }
         if cell.depth < EXACT_CROSSING_DEPTH {
             // Large cells: classify by the polygon, clip straddlers exactly.

@@ -63,6 +63,8 @@ fn table() -> &'static [Vec3] {
 /// polygons; otherwise done on first use).
 pub fn precompute() {
     let _ = table();
+    super::coarse::precompute();
+    super::fast_math::precompute();
     let mut p = Vec::new();
     super::polygon::cell_polygon_f32(Cell::ROOT, &mut p);
 }

@@ -30,11 +30,18 @@
 
 pub mod children;
 pub mod children_x16;
+pub mod coarse;
+pub mod coarse_x16;
+pub mod fast_math;
 pub mod fit;
 pub mod form_factor;
 pub mod ggx;
+pub mod level1;
 pub mod lobe;
 pub mod polygon;
+pub mod quad;
+pub mod quad_x16;
+pub mod simd;
 pub mod sphere_clip;
 pub mod table;
 

@@ -1,0 +1,221 @@
+//! The arithmetic shared by the scalar and 16-wide quad kernels, in pairs
+//! that perform the same IEEE operations in the same order, so that both
+//! kernels agree bit for bit (deep cells cancel catastrophically, so any
+//! rounding difference would show up as a different result):
+//! - [`rsqrt`]: 1/√x from the hardware estimate (`vrsqrt14`, the same
+//!   table for the scalar and packed forms) and one Newton step, instead of
+//!   a √ and a division that occupy the divider for ~30 cycles per vector;
+//! - [`theta_over_sin`]: θ/sin θ of an edge between unit vectors from
+//!   d = cos θ, our own polynomial (no atan2, no division);
+//! - [`dyadic_sincos`]: sin and cos of 2π·n/2^depth from two 2048-entry
+//!   tables, for the corner grids of the quadtree (every corner azimuth is
+//!   dyadic), instead of a range-reduced series per call.
+// `!(x > 0.0)` is deliberate: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use std::sync::LazyLock;
+use wide::f32x16;
+
+/// θ/sin θ = acos(x)/√(1 − x²) ≈ Σ c_k·x^k on x ∈ [0, 1]: a Chebyshev
+/// interpolant of degree 9 (the function is analytic on [0, 1]; its branch
+/// point at x = −1 gives a convergence factor 5.8 per degree). Relative
+/// error 1.2e-8 in exact arithmetic, a few f32 ulps in Horner form.
+#[allow(clippy::excessive_precision)] // printed from the f64 interpolant
+pub const THETA_OVER_SIN: [f32; 10] = [
+    1.5707963097e+00,
+    -9.9999643659e-01,
+    7.8527429849e-01,
+    -6.6497069102e-01,
+    5.7698271115e-01,
+    -4.8223030155e-01,
+    3.5109273194e-01,
+    -1.9474763775e-01,
+    6.9269099209e-02,
+    -1.1470095845e-02,
+];
+
+/// Floor of the arguments of [`rsqrt`]: keeps a zero vertex or a zero
+/// cross product finite (its products with 0 then stay exactly 0).
+pub const RSQRT_FLOOR: f32 = 1e-30;
+
+/// 1/√x for x ≥ [`RSQRT_FLOOR`]: estimate (relative error < 2⁻¹⁴) and one
+/// Newton step, ~1 ulp.
+#[inline(always)]
+pub fn rsqrt(x: f32) -> f32 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+    let y = {
+        use std::arch::x86_64::{_mm_cvtss_f32, _mm_rsqrt14_ss, _mm_set_ss};
+        // SAFETY: avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            let v = _mm_set_ss(x);
+            _mm_cvtss_f32(_mm_rsqrt14_ss(v, v))
+        }
+    };
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+    let y = 1.0 / x.sqrt();
+    let hx = 0.5 * x;
+    y * (-hx).mul_add(y * y, 1.5)
+}
+
+/// [`rsqrt`] on 16 lanes.
+#[inline(always)]
+pub fn rsqrt_x16(x: f32x16) -> f32x16 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+    let y: f32x16 = {
+        use std::arch::x86_64::{__m512, _mm512_rsqrt14_ps};
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
+        // avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            let v: __m512 = std::mem::transmute(x);
+            std::mem::transmute(_mm512_rsqrt14_ps(v))
+        }
+    };
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
+    let y = f32x16::splat(1.0) / x.sqrt();
+    let hx = f32x16::splat(0.5) * x;
+    y * (-hx).mul_add(y * y, f32x16::splat(1.5))
+}
+
+/// θ/sin θ on [0, 1] (the polynomial alone), in Estrin's form: 12
+/// operations instead of Horner's 9, but a dependency chain of 5 instead
+/// of 9, which matters because a descent waits for each level's result.
+#[inline(always)]
+pub fn theta_over_sin_unit(x: f32) -> f32 {
+    let c = THETA_OVER_SIN;
+    let (x2, pair) = (x * x, |i: usize| c[i + 1].mul_add(x, c[i]));
+    let x4 = x2 * x2;
+    let lo = pair(2).mul_add(x2, pair(0));
+    let hi = pair(6).mul_add(x2, pair(4));
+    pair(8).mul_add(x4 * x4, hi.mul_add(x4, lo))
+}
+
+/// [`theta_over_sin_unit`] on 16 lanes.
+#[inline(always)]
+pub fn theta_over_sin_unit_x16(x: f32x16) -> f32x16 {
+    let c = THETA_OVER_SIN.map(f32x16::splat);
+    let (x2, pair) = (x * x, |i: usize| c[i + 1].mul_add(x, c[i]));
+    let x4 = x2 * x2;
+    let lo = pair(2).mul_add(x2, pair(0));
+    let hi = pair(6).mul_add(x2, pair(4));
+    pair(8).mul_add(x4 * x4, hi.mul_add(x4, lo))
+}
+
+/// θ/sin θ of an edge between unit vectors with dot product `d` and cross
+/// product of squared length `q`. Past 90° (d < 0) θ = π − θ(|d|), so
+/// θ/sin θ = π/sin θ − θ(|d|)/sin θ; sin θ = √q is taken from the cross
+/// product, which stays accurate near d = −1 where √(1 − d²) would not.
+#[inline(always)]
+pub fn theta_over_sin(d: f32, q: impl FnOnce() -> f32) -> f32 {
+    let p = theta_over_sin_unit(d.abs());
+    if d < 0.0 {
+        std::f32::consts::PI.mul_add(rsqrt(q().max(RSQRT_FLOOR)), -p)
+    } else {
+        p
+    }
+}
+
+/// [`theta_over_sin`] on 16 lanes; the obtuse branch is only evaluated
+/// when some lane needs it.
+#[inline(always)]
+pub fn theta_over_sin_x16(d: f32x16, q: impl FnOnce() -> f32x16) -> f32x16 {
+    let p = theta_over_sin_unit_x16(d.abs());
+    let obtuse = d.simd_lt(f32x16::splat(0.0));
+    if obtuse.any() {
+        let rs = rsqrt_x16(q().fast_max(f32x16::splat(RSQRT_FLOOR)));
+        let far = f32x16::splat(std::f32::consts::PI).mul_add(rs, -p);
+        obtuse.bitselect(far, p)
+    } else {
+        p
+    }
+}
+
+const TABLE_BITS: u32 = 11;
+/// Angles resolved by the two tables: 2π·n/2^22 for n < 2^22.
+pub const DYADIC_BITS: u32 = 2 * TABLE_BITS;
+
+struct SinCosTables {
+    /// sin, cos of 2π·i/2^11.
+    hi: [[f32; 2]; 1 << TABLE_BITS],
+    /// sin, cos of 2π·i/2^22.
+    lo: [[f32; 2]; 1 << TABLE_BITS],
+}
+
+static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
+    let entry = |turns: f64| {
+        let (s, c) = (2.0 * std::f64::consts::PI * turns).sin_cos();
+        [s as f32, c as f32]
+    };
+    let n = 1usize << TABLE_BITS;
+    Box::new(SinCosTables {
+        hi: std::array::from_fn(|i| entry(i as f64 / n as f64)),
+        lo: std::array::from_fn(|i| entry(i as f64 / (n * n) as f64)),
+    })
+});
+
+/// Forces the tables (otherwise built on first use).
+pub fn precompute() {
+    LazyLock::force(&TABLES);
+}
+
+/// sin and cos of 2π·n/2^depth (n < 2^depth ≤ 2^22) by one angle addition
+/// of two table entries: within ~2 ulps, no range reduction.
+#[inline(always)]
+pub fn dyadic_sincos(n: u64, depth: u32) -> (f32, f32) {
+    if depth > DYADIC_BITS {
+        return deeper_sincos(n, depth);
+    }
+    let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
+    let tab = &*TABLES;
+    let [sh, ch] = tab.hi[t >> TABLE_BITS];
+    let [sl, cl] = tab.lo[t & ((1 << TABLE_BITS) - 1)];
+    (sh.mul_add(cl, ch * sl), ch.mul_add(cl, -(sh * sl)))
+}
+
+#[cold]
+fn deeper_sincos(n: u64, depth: u32) -> (f32, f32) {
+    super::polygon::sincos_turns((n as f64 / (1u64 << depth.min(63)) as f64) as f32)
+}
+
+/// 4π/4^depth in f32, exactly the f64 solid angle of a cell rounded.
+#[inline]
+pub fn cell_solid_angle(depth: u32) -> f32 {
+    let scale = f32::from_bits((127u32.saturating_sub(2 * depth.min(63))) << 23);
+    (4.0 * std::f32::consts::PI) * scale
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn theta_over_sin_matches_acos() {
+        let mut worst = 0.0f64;
+        for i in 0..=20000 {
+            let d = -0.999 + 1.999 * i as f64 / 20000.0;
+            let theta = d.acos();
+            let want = theta / theta.sin();
+            let q = (1.0 - d * d) as f32;
+            let got = theta_over_sin(d as f32, || q) as f64;
+            worst = worst.max((got - want).abs() / want);
+        }
+        assert!(worst < 1e-6, "{worst}");
+        assert!((rsqrt(2.0) as f64 - 0.5f64.sqrt()).abs() < 2e-7);
+    }
+
+    #[test]
+    fn dyadic_sincos_is_accurate() {
+        for depth in [0u32, 1, 3, 7, 12, 20, 22] {
+            let n = 1u64 << depth;
+            for i in [0, 1, n / 3, n / 2, n - 1] {
+                let (s, c) = dyadic_sincos(i, depth);
+                let phi = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                assert!((s as f64 - phi.sin()).abs() < 3e-7, "{depth} {i}");
+                assert!((c as f64 - phi.cos()).abs() < 3e-7, "{depth} {i}");
+            }
+        }
+        for d in 0..30 {
+            let want = 4.0 * std::f64::consts::PI / (1u64 << (2 * d)) as f64;
+            assert_eq!(cell_solid_angle(d), want as f32);
+        }
+    }
+}

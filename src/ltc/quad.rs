@@ -1,0 +1,114 @@
+//! Children that are plain quads (depth ≥ 6: no parallel is subdivided),
+//! scalar: the 4 children of a node share a 3×3 corner grid, so 9 corners
+//! are mapped into the lobe's cosine space and normalised once, and the 12
+//! distinct edges (6 on parallels, 6 on meridians; interior ones serve two
+//! children with opposite orientation) are integrated once each.
+//!
+//! With unit vertices an edge's term is (θ/sin θ)(a·b)·(a×b): no atan2, no
+//! division, and (a×b) keeps the accuracy of short edges (θ/sin θ → 1 is
+//! flat there). [`super::quad_x16`] evaluates the same 16 child edges with
+//! the same operations, one lane each, so both agree bit for bit.
+
+use super::children::{GlossyLtc, HorizonSide, child_grid};
+use super::fast_math::{RSQRT_FLOOR, dyadic_sincos, rsqrt, theta_over_sin};
+use super::polygon::transform_rows;
+use crate::directional::Cell;
+use glam::Vec3;
+
+/// The 3×3 corner grid of a node's children: heights, radii √(1 − z²) and
+/// sin, cos of the azimuths (index 1 is the node's centre meridian).
+#[derive(Clone, Copy, Debug)]
+pub struct NodeGrid {
+    pub z: [f32; 3],
+    pub r: [f32; 3],
+    pub sin: [f32; 3],
+    pub cos: [f32; 3],
+}
+
+/// Corner grid of `cell`'s children. The azimuths are dyadic: the centre
+/// comes from the tables, the sides by one rotation by a child's width.
+#[inline]
+pub fn node_grid(cell: Cell) -> NodeGrid {
+    let (z, _) = child_grid(cell);
+    // (1 − z)(1 + z) is exact near the poles, where 1 − z² cancels.
+    let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
+    let d = cell.depth + 1;
+    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
+    let (ss, cs) = dyadic_sincos(1, d);
+    NodeGrid {
+        z,
+        r,
+        sin: [s1.mul_add(cs, -(c1 * ss)), s1, s1.mul_add(cs, c1 * ss)],
+        cos: [c1.mul_add(cs, s1 * ss), c1, c1.mul_add(cs, -(s1 * ss))],
+    }
+}
+
+/// A world direction mapped by `rows` and normalised.
+#[inline(always)]
+pub fn unit_cosine_vertex(rows: &[[f32; 3]; 3], w: Vec3) -> Vec3 {
+    let t = transform_rows(rows, w);
+    let n2 = t.z.mul_add(t.z, t.y.mul_add(t.y, t.x * t.x));
+    t * rsqrt(n2.max(RSQRT_FLOOR))
+}
+
+/// a×b (no fused products, so exactly antisymmetric) and θ/sin θ of the
+/// edge between unit vectors a and b; the edge's term is (a×b)·k.
+#[inline(always)]
+pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
+    let c = Vec3::new(
+        a.y * b.z - a.z * b.y,
+        a.z * b.x - a.x * b.z,
+        a.x * b.y - a.y * b.x,
+    );
+    let d = a.z.mul_add(b.z, a.y.mul_add(b.y, a.x * b.x));
+    let k = theta_over_sin(d, || c.z.mul_add(c.z, c.y.mul_add(c.y, c.x * c.x)));
+    (c, k)
+}
+
+/// Edge sums (2π·F, winding as built) and horizon sides of the 4 plain-quad
+/// children. Only F_z is formed unless a child straddles the horizon (the
+/// sphere approximation then needs all of F).
+pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
+    let gr = node_grid(cell);
+    let mut p = [[Vec3::ZERO; 3]; 3];
+    for (zi, row) in p.iter_mut().enumerate() {
+        for (vi, q) in row.iter_mut().enumerate() {
+            let w = Vec3::new(gr.r[zi] * gr.cos[vi], gr.r[zi] * gr.sin[vi], gr.z[zi]);
+            *q = unit_cosine_vertex(&g.rows, w);
+        }
+    }
+    // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
+    let par = |zi: usize, vi: usize| unit_edge(p[zi][vi], p[zi][vi + 1]);
+    let mer = |vi: usize, zi: usize| unit_edge(p[zi][vi], p[zi + 1][vi]);
+    let pe = [
+        [par(0, 0), par(0, 1)],
+        [par(1, 0), par(1, 1)],
+        [par(2, 0), par(2, 1)],
+    ];
+    let me = [
+        [mer(0, 0), mer(0, 1)],
+        [mer(1, 0), mer(1, 1)],
+        [mer(2, 0), mer(2, 1)],
+    ];
+    let sides: [HorizonSide; 4] = std::array::from_fn(|k| {
+        let (iu, iv) = (k & 1, k >> 1);
+        HorizonSide::of_vertices(&[p[iu][iv], p[iu][iv + 1], p[iu + 1][iv + 1], p[iu + 1][iv]])
+    });
+    let full = sides.contains(&HorizonSide::Crossing);
+    let term = |(c, k): (Vec3, f32)| {
+        if full {
+            c * k
+        } else {
+            Vec3::new(0.0, 0.0, c.z * k)
+        }
+    };
+    let sums = std::array::from_fn(|k| {
+        let (iu, iv) = (k & 1, k >> 1);
+        let e0 = term(pe[iu][iv]);
+        let e1 = term(me[iv + 1][iu]);
+        let e2 = -term(pe[iu + 1][iv]);
+        let e3 = -term(me[iv][iu]);
+        (e0 + e1) + (e2 + e3)
+    });
+    (sums, sides)
+}

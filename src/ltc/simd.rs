@@ -1,0 +1,181 @@
+//! f32x16 building blocks shared by the wide kernels, each the lane-wise
+//! twin of a scalar function in [`super::polygon`] (same operations, same
+//! order), so wide and scalar kernels agree bit for bit.
+
+use super::polygon::ATAN_COEFFS;
+use wide::f32x16;
+
+#[inline(always)]
+pub fn splat(v: f32) -> f32x16 {
+    f32x16::splat(v)
+}
+
+/// atan on [0, 1] (see [`super::polygon::atan_unit`]).
+#[inline(always)]
+pub fn atan_unit(t: f32x16) -> f32x16 {
+    let u = t * t;
+    let mut p = splat(ATAN_COEFFS[9]);
+    for k in (0..9).rev() {
+        p = p.mul_add(u, splat(ATAN_COEFFS[k]));
+    }
+    t * p
+}
+
+/// θ/s (see [`super::polygon::theta_over_s`]).
+#[inline(always)]
+pub fn theta_over_s(s: f32x16, d: f32x16) -> f32x16 {
+    let s = s.fast_max(splat(1e-30));
+    let a = d.abs();
+    let swap = s.simd_gt(a);
+    let num = swap.bitselect(a, s);
+    let den = swap.bitselect(s, a);
+    let r = splat(1.0) / (den * s).fast_max(splat(1e-37));
+    let t = num * s * r;
+    let at = atan_unit(t);
+    let th = swap.bitselect(splat(std::f32::consts::FRAC_PI_2) - at, at);
+    let theta = d
+        .simd_lt(splat(0.0))
+        .bitselect(splat(std::f32::consts::PI) - th, th);
+    theta * (den * r)
+}
+
+/// sin, cos of 2π·v (see [`super::polygon::sincos_turns`]).
+#[inline(always)]
+pub fn sincos_turns(v: f32x16) -> (f32x16, f32x16) {
+    let q = v * splat(4.0);
+    let qi = q.floor();
+    let x = (q - qi) * splat(std::f32::consts::FRAC_PI_2);
+    let u = x * x;
+    let mut s = splat(1.0 / 6_227_020_800.0);
+    s = s.mul_add(u, splat(-1.0 / 39_916_800.0));
+    s = s.mul_add(u, splat(1.0 / 362_880.0));
+    s = s.mul_add(u, splat(-1.0 / 5040.0));
+    s = s.mul_add(u, splat(1.0 / 120.0));
+    s = s.mul_add(u, splat(-1.0 / 6.0));
+    s = s.mul_add(u, splat(1.0));
+    let s = x * s;
+    let mut c = splat(-1.0 / 87_178_291_200.0);
+    c = c.mul_add(u, splat(1.0 / 479_001_600.0));
+    c = c.mul_add(u, splat(-1.0 / 3_628_800.0));
+    c = c.mul_add(u, splat(1.0 / 40320.0));
+    c = c.mul_add(u, splat(-1.0 / 720.0));
+    c = c.mul_add(u, splat(1.0 / 24.0));
+    c = c.mul_add(u, splat(-0.5));
+    c = c.mul_add(u, splat(1.0));
+    let quadrant = qi - (qi * splat(0.25)).floor() * splat(4.0);
+    let q1 = quadrant.simd_eq(splat(1.0));
+    let q2 = quadrant.simd_eq(splat(2.0));
+    let q3 = quadrant.simd_eq(splat(3.0));
+    let sin = q3.bitselect(-c, q2.bitselect(-s, q1.bitselect(c, s)));
+    let cos = q3.bitselect(s, q2.bitselect(-c, q1.bitselect(-s, c)));
+    (sin, cos)
+}
+
+#[inline(always)]
+pub fn transform(rows: &[[f32; 3]; 3], x: f32x16, y: f32x16, z: f32x16) -> [f32x16; 3] {
+    let r = |i: usize| {
+        splat(rows[i][2]).mul_add(z, splat(rows[i][1]).mul_add(y, splat(rows[i][0]) * x))
+    };
+    [r(0), r(1), r(2)]
+}
+
+/// θ·(a×b)/|a×b| on 16 lanes.
+#[inline(always)]
+pub fn edge_vectors(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
+    let cx = a[1] * b[2] - a[2] * b[1];
+    let cy = a[2] * b[0] - a[0] * b[2];
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let s = (cx * cx + cy * cy + cz * cz).sqrt();
+    let k = theta_over_s(s, d);
+    [cx * k, cy * k, cz * k]
+}
+
+#[inline(always)]
+pub fn load16(a: &[f32], i: usize) -> f32x16 {
+    f32x16::from(<[f32; 16]>::try_from(&a[i..i + 16]).unwrap())
+}
+
+/// Gathers lanes of `v` by constant indices: one vpermps on AVX-512.
+#[inline(always)]
+pub fn permute(v: f32x16, idx: &[i32; 16]) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m512, __m512i, _mm512_permutexvar_ps};
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32, and
+        // [i32; 16] and __m512i both 64 bytes; avx512f is enabled at
+        // compile time (the cfg above).
+        unsafe {
+            let vi: __m512i = std::mem::transmute(*idx);
+            let vv: __m512 = std::mem::transmute(v);
+            std::mem::transmute(_mm512_permutexvar_ps(vi, vv))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        let a = v.to_array();
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
+    }
+}
+
+/// sin and cos of azimuths one step either side of a centre (s1, c1), per
+/// lane by `side` ∈ {−1, 0, 1}: the operations of [`super::quad::node_grid`]
+/// (a rotation by the step (ss, cs), exact at side 0), without going
+/// through scalar lanes.
+#[inline(always)]
+pub fn rotated_sincos(
+    (s1, c1): (f32, f32),
+    (ss, cs): (f32, f32),
+    side: f32x16,
+) -> (f32x16, f32x16) {
+    let centre = side.simd_eq(splat(0.0));
+    let cs_l = centre.bitselect(splat(1.0), splat(cs));
+    let ss_l = side * splat(ss);
+    let (s1, c1) = (splat(s1), splat(c1));
+    (s1.mul_add(cs_l, c1 * ss_l), c1.mul_add(cs_l, -(s1 * ss_l)))
+}
+
+/// Heights ((u + i)·h)·2 − 1 and radii √((1 − z)(1 + z)) per lane, with
+/// the operations of [`super::children::child_grid`] and the grid radii.
+#[inline(always)]
+pub fn heights_and_radii(u: f32, h: f32, i: f32x16) -> (f32x16, f32x16) {
+    let z = ((splat(u) + i) * splat(h)).mul_add(splat(2.0), splat(-1.0));
+    let r = ((splat(1.0) - z) * (splat(1.0) + z))
+        .fast_max(splat(0.0))
+        .sqrt();
+    (z, r)
+}
+
+/// World directions mapped by `rows` and normalised: the operations of
+/// [`super::quad::unit_cosine_vertex`].
+#[inline(always)]
+pub fn unit_vertices(rows: &[[f32; 3]; 3], x: f32x16, y: f32x16, z: f32x16) -> [f32x16; 3] {
+    use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
+    let t = transform(rows, x, y, z);
+    let n2 = t[2].mul_add(t[2], t[1].mul_add(t[1], t[0] * t[0]));
+    let inv = rsqrt_x16(n2.fast_max(splat(RSQRT_FLOOR)));
+    [t[0] * inv, t[1] * inv, t[2] * inv]
+}
+
+/// a×b and θ/sin θ of edges between unit vectors: the operations of
+/// [`super::quad::unit_edge`].
+#[inline(always)]
+pub fn unit_edges(a: [f32x16; 3], b: [f32x16; 3]) -> ([f32x16; 3], f32x16) {
+    let cx = a[1] * b[2] - a[2] * b[1];
+    let cy = a[2] * b[0] - a[0] * b[2];
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
+    let k = super::fast_math::theta_over_sin_x16(d, || cz.mul_add(cz, cy.mul_add(cy, cx * cx)));
+    ([cx, cy, cz], k)
+}
+
+/// [`super::coarse::horizon_point`] on 16 lanes.
+#[inline(always)]
+pub fn horizon_points(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
+    use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
+    let t = a[2] / (a[2] - b[2]);
+    let x = (b[0] - a[0]).mul_add(t, a[0]);
+    let y = (b[1] - a[1]).mul_add(t, a[1]);
+    let inv = rsqrt_x16(y.mul_add(y, x * x).fast_max(splat(RSQRT_FLOOR)));
+    [x * inv, y * inv, splat(0.0)]
+}
