@@ -77,7 +77,7 @@ fn main() {
             black_box(s.child_integrals(black_box(cell), ProductKernel::Simd));
         });
         let es = min_ns(|| {
-            black_box(ltcguide::ltc::children_x16::children_edge_sums_x16(
+            black_box(ltcguide::ltc::quad_x16::quad_children_x16(
                 &g,
                 black_box(cell),
             ));
@@ -88,7 +88,7 @@ fn main() {
         let dx = min_ns(|| {
             black_box(d.child_integrals(black_box(cell), ProductKernel::Simd));
         });
-        print!("[edge sums x16 only {es:.1}, deep {deep:.1}, diffuse api simd {dx:.1}] ");
+        print!("[quad x16 only {es:.1}, deep {deep:.1}, diffuse api simd {dx:.1}] ");
         println!(
             "{level:>5} | {r:>7.1} | {sc:>6.1} | {x:>5.1} | {:>5.2} | {df:>6.1} | {api:>6.1}",
             sc / x
