@@ -6,6 +6,7 @@
 
 use super::{KIND_SPHERE, PrimGeom, sphere_intersect};
 use glam::Vec3;
+use obvhs::cwbvh::CwBvh;
 use wide::{f32x8, i32x8};
 
 /// Eight triangles, structure of arrays. Padding lanes have zero edges
@@ -16,7 +17,7 @@ pub(super) struct Tri8 {
     p0: [[f32; 8]; 3],
     e1: [[f32; 8]; 3],
     e2: [[f32; 8]; 3],
-    /// Leaf-order primitive index of each lane.
+    /// Original primitive index of each lane.
     pub(super) prim: [u32; 8],
     /// 1 << (the node's child slot holding this triangle); 0 for padding.
     slot_bit: [i32; 8],
@@ -125,25 +126,26 @@ impl SphereRef {
     }
 }
 
-/// Appends the primitives of one node's leaf children, given as
-/// (slot, leaf-order range), to `packets` and `spheres`; returns the
-/// number of packets added.
+/// Appends the primitives of one node's leaf children, given as (slot,
+/// range of `bvh.primitive_indices`), to `packets` and `spheres`; returns
+/// the number of packets added.
 pub(super) fn pack_node_leaves(
     leaves: &[(usize, std::ops::Range<usize>)],
-    prims: &[PrimGeom],
+    bvh: &CwBvh,
+    geometry: &[PrimGeom],
     packets: &mut Vec<Tri8>,
     spheres: &mut Vec<SphereRef>,
 ) -> u32 {
     let first = packets.len();
     let mut lane = 8;
     for (slot, range) in leaves {
-        for p in range.clone() {
-            let g = &prims[p];
+        for &p in &bvh.primitive_indices[range.clone()] {
+            let g = &geometry[p as usize];
             if g.kind == KIND_SPHERE {
                 spheres.push(SphereRef {
                     center: g.p0,
                     radius: g.e1.x,
-                    prim: p as u32,
+                    prim: p,
                     slot_bit: 1 << slot,
                 });
                 continue;
@@ -158,7 +160,7 @@ pub(super) fn pack_node_leaves(
                 t.e1[axis][lane] = g.e1[axis];
                 t.e2[axis][lane] = g.e2[axis];
             }
-            t.prim[lane] = p as u32;
+            t.prim[lane] = p;
             t.slot_bit[lane] = 1 << slot;
             lane += 1;
         }

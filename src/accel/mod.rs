@@ -167,10 +167,6 @@ pub struct Accel {
     nodes: Vec<Node8>,
     packets: Vec<Tri8>,
     spheres: Vec<SphereRef>,
-    /// Original primitive index of each leaf-order primitive.
-    prim_ids: Vec<u32>,
-    /// Leaf-order index of each original primitive.
-    order_of: Vec<u32>,
 }
 
 impl Accel {
@@ -180,8 +176,6 @@ impl Accel {
                 nodes: Vec::new(),
                 packets: Vec::new(),
                 spheres: Vec::new(),
-                prim_ids: Vec::new(),
-                order_of: Vec::new(),
             };
         }
         let bounds: Vec<BoundsOnly> = geometry.iter().map(|g| BoundsOnly(g.aabb())).collect();
@@ -190,19 +184,11 @@ impl Accel {
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
-        let prim_ids: Vec<u32> = bvh.primitive_indices.clone();
-        let prims: Vec<PrimGeom> = prim_ids.iter().map(|&i| geometry[i as usize]).collect();
-        let mut order_of = vec![u32::MAX; geometry.len()];
-        for (k, &i) in prim_ids.iter().enumerate() {
-            order_of[i as usize] = k as u32;
-        }
-        let (nodes, packets, spheres) = decode_nodes(&bvh, &prims);
+        let (nodes, packets, spheres) = decode_nodes(&bvh, geometry);
         Accel {
             nodes,
             packets,
             spheres,
-            prim_ids,
-            order_of,
         }
     }
 
@@ -213,7 +199,7 @@ impl Accel {
         let mut best_prim = u32::MAX;
         self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim, u32::MAX);
         (best_prim != u32::MAX).then(|| Hit {
-            prim: self.prim_ids[best_prim as usize],
+            prim: best_prim,
             t: best,
         })
     }
@@ -233,11 +219,6 @@ impl Accel {
     pub fn occluded_except(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, skip: u32) -> bool {
         let mut t = tmax;
         let mut prim = u32::MAX;
-        let skip = self
-            .order_of
-            .get(skip as usize)
-            .copied()
-            .unwrap_or(u32::MAX);
         self.traverse::<true>(o, d, tmin, &mut t, &mut prim, skip);
         prim != u32::MAX
     }
@@ -391,7 +372,7 @@ fn safe_inverse(x: f32) -> f32 {
 /// full-precision boxes and packs each node's leaf primitives. The
 /// quantisation rounds outwards, so the decoded box still contains the
 /// child; empty slots get an inverted box.
-fn decode_nodes(bvh: &CwBvh, prims: &[PrimGeom]) -> (Vec<Node8>, Vec<Tri8>, Vec<SphereRef>) {
+fn decode_nodes(bvh: &CwBvh, geometry: &[PrimGeom]) -> (Vec<Node8>, Vec<Tri8>, Vec<SphereRef>) {
     let mut packets = Vec::new();
     let mut spheres = Vec::new();
     let nodes = bvh
@@ -426,7 +407,7 @@ fn decode_nodes(bvh: &CwBvh, prims: &[PrimGeom]) -> (Vec<Node8>, Vec<Tri8>, Vec<
                     out.child[slot] = n.child_node_index(slot);
                 }
             }
-            out.n_packets = pack_node_leaves(&leaves, prims, &mut packets, &mut spheres);
+            out.n_packets = pack_node_leaves(&leaves, bvh, geometry, &mut packets, &mut spheres);
             out.n_spheres = spheres.len() as u32 - out.sphere;
             out
         })
