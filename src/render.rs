@@ -20,7 +20,7 @@ pub fn default_ltc_table() -> Result<&'static LtcTable, String> {
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::PathSettings;
 use crate::integrator::stats::RenderCounters;
-use crate::integrator::{render_pass, thread_pool};
+use crate::integrator::{render_pass_into, thread_pool};
 use crate::scene::Scene;
 use serde::Serialize;
 use std::time::Instant;
@@ -368,9 +368,10 @@ fn render_unguided(
             (_, Some(s)) if clock.seconds() >= s && pass > 0 => break,
             _ => {}
         }
-        let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass, None);
-        film.merge(&out.film);
-        counters.add(&out.counters);
+        let (c, _) = render_pass_into(
+            scene, &NoGuide, &opts.path, opts.seed, pass, None, &mut film,
+        );
+        counters.add(&c);
         pass += 1;
         let now = clock.seconds();
         if snapshots.due(now) {

@@ -8,7 +8,6 @@ pub mod path;
 pub mod stats;
 
 use crate::film::image::Film;
-use crate::math::Spectrum;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec2;
@@ -47,22 +46,54 @@ pub fn render_pass<G: Guide>(
     pass: u64,
     pixel_estimates: Option<&[f32]>,
 ) -> PassOutput<G::Recorder> {
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    let (counters, recorders) = render_pass_into(
+        scene,
+        guide,
+        settings,
+        seed,
+        pass,
+        pixel_estimates,
+        &mut film,
+    );
+    PassOutput {
+        film,
+        counters,
+        recorders,
+    }
+}
+
+/// Like [`render_pass`], adding the pass straight into `film`. Each worker
+/// accumulates its own rows: no per-pass image to allocate (page faults),
+/// add and merge on one thread while the other waits.
+pub fn render_pass_into<G: Guide>(
+    scene: &Scene,
+    guide: &G,
+    settings: &PathSettings,
+    seed: u64,
+    pass: u64,
+    pixel_estimates: Option<&[f32]>,
+    film: &mut Film,
+) -> (RenderCounters, Vec<G::Recorder>) {
     let (w, h) = (scene.camera.width, scene.camera.height);
+    assert_eq!((film.width, film.height), (w, h), "film and camera differ");
     let stream_seed = pass_seed(seed, pass);
-    let mut pixels = vec![Spectrum::ZERO; w * h];
-    let results: Vec<(RenderCounters, G::Recorder)> = pixels
-        .par_chunks_mut(ROWS_PER_BLOCK * w)
+    let block_len = ROWS_PER_BLOCK * w;
+    let results: Vec<(RenderCounters, G::Recorder)> = film
+        .sum
+        .par_chunks_mut(block_len)
+        .zip(film.sum_sq.par_chunks_mut(block_len))
         .enumerate()
-        .map_init(PathScratch::default, |scratch, (block, out)| {
+        .map_init(PathScratch::default, |scratch, (block, (sum, sum_sq))| {
             let mut counters = RenderCounters::default();
             let mut recorder = guide.new_recorder();
-            for (k, px) in out.iter_mut().enumerate() {
-                let index = block * ROWS_PER_BLOCK * w + k;
+            for (k, (s, q)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
+                let index = block * block_len + k;
                 let (x, y) = (index % w, index / w);
                 let mut rng = Rng::new(stream_seed, index as u64);
                 let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
                 let (o, d) = scene.camera.ray(film_pos);
-                *px = trace_path(
+                let v = trace_path(
                     scene,
                     guide,
                     settings,
@@ -74,23 +105,21 @@ pub fn render_pass<G: Guide>(
                     &mut recorder,
                     pixel_estimates.map_or(0.0, |e| e[index]),
                 );
+                // What `Film::add_pass` does for this pixel.
+                *s += v;
+                *q += v * v;
             }
             (counters, recorder)
         })
         .collect();
-    let mut film = Film::new(w, h);
-    film.add_pass(&pixels);
+    film.spp += 1;
     let mut counters = RenderCounters::default();
     let mut recorders = Vec::with_capacity(results.len());
     for (c, r) in results {
         counters.add(&c);
         recorders.push(r);
     }
-    PassOutput {
-        film,
-        counters,
-        recorders,
-    }
+    (counters, recorders)
 }
 
 /// Builds the thread pool a render runs in (0 = all cores).
