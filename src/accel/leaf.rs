@@ -71,7 +71,7 @@ impl Tri8 {
     }
 
     /// Möller–Trumbore on eight triangles: the lanes (within `active`) hit
-    /// in (tmin, tmax), and every lane's distance. The operations and their
+    /// in (tmin, tmax), and every lane's distance and barycentrics (u, v). The operations and their
     /// order are those of [`PrimGeom::intersect`], so a lane's distance is
     /// bit-identical to the scalar test's and the images do not change.
     #[inline(always)]
@@ -81,7 +81,7 @@ impl Tri8 {
         tmin: f32,
         tmax: f32,
         active: u32,
-    ) -> (u32, [f32; 8]) {
+    ) -> (u32, [f32; 8], [f32; 8], [f32; 8]) {
         let l = |a: &[f32; 8]| f32x8::from(*a);
         let (e1x, e1y, e1z) = (l(&self.e1[0]), l(&self.e1[1]), l(&self.e1[2]));
         let (e2x, e2y, e2z) = (l(&self.e2[0]), l(&self.e2[1]), l(&self.e2[2]));
@@ -112,7 +112,7 @@ impl Tri8 {
             | (u + v).simd_gt(one).to_bitmask()
             | !(t.simd_gt(f32x8::splat(tmin)).to_bitmask()
                 & t.simd_lt(f32x8::splat(tmax)).to_bitmask());
-        (active & !reject, t.to_array())
+        (active & !reject, t.to_array(), u.to_array(), v.to_array())
     }
 }
 

@@ -132,6 +132,9 @@ pub fn sphere_intersect(c: Vec3, r: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32)
 pub struct Hit {
     pub prim: u32,
     pub t: f32,
+    /// Barycentrics of the hit point (weights of p1 and p2) from the
+    /// triangle test; zero for spheres.
+    pub uv: (f32, f32),
 }
 
 /// A BVH8 node decoded from obvhs's compressed node: the eight child boxes
@@ -197,10 +200,12 @@ impl Accel {
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = tmax;
         let mut best_prim = u32::MAX;
-        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim, u32::MAX);
-        (best_prim != u32::MAX).then(|| Hit {
+        let mut uv = (0.0, 0.0);
+        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim, &mut uv, u32::MAX);
+        (best_prim != u32::MAX).then_some(Hit {
             prim: best_prim,
             t: best,
+            uv,
         })
     }
 
@@ -219,7 +224,8 @@ impl Accel {
     pub fn occluded_except(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, skip: u32) -> bool {
         let mut t = tmax;
         let mut prim = u32::MAX;
-        self.traverse::<true>(o, d, tmin, &mut t, &mut prim, skip);
+        let mut uv = (0.0, 0.0);
+        self.traverse::<true>(o, d, tmin, &mut t, &mut prim, &mut uv, skip);
         prim != u32::MAX
     }
 
@@ -231,6 +237,7 @@ impl Accel {
         tmin: f32,
         tmax: &mut f32,
         hit_prim: &mut u32,
+        hit_uv: &mut (f32, f32),
         skip: u32,
     ) {
         if self.nodes.is_empty() {
@@ -293,7 +300,7 @@ impl Accel {
                     if active == 0 {
                         continue;
                     }
-                    let (mut hits, t) = packet.intersect(&ray, tmin, *tmax, active);
+                    let (mut hits, t, u, v) = packet.intersect(&ray, tmin, *tmax, active);
                     while hits != 0 {
                         let lane = hits.trailing_zeros() as usize;
                         hits &= hits - 1;
@@ -301,6 +308,7 @@ impl Accel {
                         if t[lane] < *tmax && p != skip {
                             *tmax = t[lane];
                             *hit_prim = p;
+                            *hit_uv = (u[lane], v[lane]);
                             if ANY_HIT {
                                 return;
                             }
@@ -313,6 +321,7 @@ impl Accel {
                     if t < *tmax && sphere.prim != skip {
                         *tmax = t;
                         *hit_prim = sphere.prim;
+                        *hit_uv = (0.0, 0.0);
                         if ANY_HIT {
                             return;
                         }
