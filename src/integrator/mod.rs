@@ -47,12 +47,12 @@ pub fn render_pass<G: Guide>(
     pixel_estimates: Option<&[f32]>,
 ) -> PassOutput<G::Recorder> {
     let mut film = Film::new(scene.camera.width, scene.camera.height);
-    let (counters, recorders) = render_pass_into(
+    let (counters, recorders) = render_passes_into(
         scene,
         guide,
         settings,
         seed,
-        pass,
+        pass..pass + 1,
         pixel_estimates,
         &mut film,
     );
@@ -63,21 +63,28 @@ pub fn render_pass<G: Guide>(
     }
 }
 
-/// Like [`render_pass`], adding the pass straight into `film`. Each worker
-/// accumulates its own rows: no per-pass image to allocate (page faults),
-/// add and merge on one thread while the other waits.
-pub fn render_pass_into<G: Guide>(
+/// Renders the passes `passes` and adds them straight into `film`. Each
+/// worker accumulates its own rows: no per-pass image to allocate (page
+/// faults), add and merge on one thread while the other waits.
+///
+/// A pixel's samples of all the passes are traced one after the other, so
+/// consecutive paths start alike and find the BVH nodes, triangles and
+/// texels of their first hits in cache; a pass-major order had evicted
+/// them by the next pass. Every sample keeps its pass's random stream and
+/// the film adds the passes in order, so the image is the same as from
+/// one pass at a time.
+pub fn render_passes_into<G: Guide>(
     scene: &Scene,
     guide: &G,
     settings: &PathSettings,
     seed: u64,
-    pass: u64,
+    passes: std::ops::Range<u64>,
     pixel_estimates: Option<&[f32]>,
     film: &mut Film,
 ) -> (RenderCounters, Vec<G::Recorder>) {
     let (w, h) = (scene.camera.width, scene.camera.height);
     assert_eq!((film.width, film.height), (w, h), "film and camera differ");
-    let stream_seed = pass_seed(seed, pass);
+    let stream_seeds: Vec<u64> = passes.clone().map(|p| pass_seed(seed, p)).collect();
     let block_len = ROWS_PER_BLOCK * w;
     let results: Vec<(RenderCounters, G::Recorder)> = film
         .sum
@@ -90,29 +97,31 @@ pub fn render_pass_into<G: Guide>(
             for (k, (s, q)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
                 let index = block * block_len + k;
                 let (x, y) = (index % w, index / w);
-                let mut rng = Rng::new(stream_seed, index as u64);
-                let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
-                let (o, d) = scene.camera.ray(film_pos);
-                let v = trace_path(
-                    scene,
-                    guide,
-                    settings,
-                    o,
-                    d,
-                    &mut rng,
-                    &mut counters,
-                    scratch,
-                    &mut recorder,
-                    pixel_estimates.map_or(0.0, |e| e[index]),
-                );
-                // What `Film::add_pass` does for this pixel.
-                *s += v;
-                *q += v * v;
+                for &stream_seed in &stream_seeds {
+                    let mut rng = Rng::new(stream_seed, index as u64);
+                    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+                    let (o, d) = scene.camera.ray(film_pos);
+                    let v = trace_path(
+                        scene,
+                        guide,
+                        settings,
+                        o,
+                        d,
+                        &mut rng,
+                        &mut counters,
+                        scratch,
+                        &mut recorder,
+                        pixel_estimates.map_or(0.0, |e| e[index]),
+                    );
+                    // What `Film::add_pass` does for this pixel.
+                    *s += v;
+                    *q += v * v;
+                }
             }
             (counters, recorder)
         })
         .collect();
-    film.spp += 1;
+    film.spp += stream_seeds.len() as u32;
     let mut counters = RenderCounters::default();
     let mut recorders = Vec::with_capacity(results.len());
     for (c, r) in results {
