@@ -43,6 +43,10 @@ pub struct Scene {
     /// Geometry in primitive-id order: all triangles, then all spheres.
     pub geometry: Vec<PrimGeom>,
     pub triangle_shading: Vec<TriangleShading>,
+    /// Unit geometric normal of each triangle (indexed by primitive id),
+    /// computed once: per hit it was a square root and a division on the
+    /// path's critical path.
+    pub triangle_normals: Vec<Vec3>,
     /// Shape of each primitive.
     pub prim_shape: Vec<u32>,
     pub accel: Accel,
@@ -112,7 +116,7 @@ impl Scene {
         let b1 = hit.uv.0.clamp(0.0, 1.0);
         let b2 = hit.uv.1.clamp(0.0, 1.0 - b1);
         let b0 = 1.0 - b1 - b2;
-        let ng = g.e1.cross(g.e2).normalize_or(Vec3::Z);
+        let ng = self.triangle_normals[hit.prim as usize];
         let sh = &self.triangle_shading[hit.prim as usize];
         let ns = match sh.n {
             Some(n) => (n[0] * b0 + n[1] * b1 + n[2] * b2).normalize_or(ng),
@@ -131,6 +135,11 @@ impl Scene {
 
     pub fn material_of(&self, it: &Interaction) -> &Material {
         &self.materials[self.shapes[it.shape as usize].material as usize]
+    }
+
+    /// The geometric normal `interaction` reports for a triangle.
+    pub fn triangle_normal(g: &PrimGeom) -> Vec3 {
+        g.e1.cross(g.e2).normalize_or(Vec3::Z)
     }
 
     pub fn triangle_count(&self) -> usize {
