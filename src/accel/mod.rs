@@ -339,10 +339,12 @@ impl Accel {
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                // Insertion sort by decreasing distance (≤ 8 entries).
                 let t = t_near[slot];
                 let mut k = n_pending;
-                while k > 0 && pending[k - 1].1 < t {
+                // Insertion sort by decreasing distance (≤ 8 entries).
+                // Occlusion asks whether anything is hit, not what is hit
+                // first, so its children go in slot order unsorted.
+                while !ANY_HIT && k > 0 && pending[k - 1].1 < t {
                     pending[k] = pending[k - 1];
                     k -= 1;
                 }
