@@ -16,7 +16,8 @@ Fairness:
   to back and the ratio is taken per round; the summary is the median ratio.
 
 Needs: pip install mitsuba; Debian's libllvm19 (apt-get install libllvm19).
-Usage: scripts/mitsuba_speed.py [--spp 64] [--threads 2] [--repeat 3] SCENE_DIR...
+Usage: scripts/mitsuba_speed.py [--spp 64] [--threads 2] [--repeat 3] [--baseline BIN] SCENE_DIR...
+(--baseline: also time another ltcguide build in every round, e.g. before a change.)
 """
 import argparse
 import json
@@ -73,10 +74,13 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3, help="interleaved rounds per scene")
     ap.add_argument("--binary", default="target/release/ltcguide")
+    ap.add_argument("--baseline", help="another ltcguide binary timed in every round")
     args = ap.parse_args()
     mitsuba = Mitsuba(args.threads)
-    print("| scene | spp | round | ltcguide paths/s | mitsuba llvm_ad_rgb paths/s | ratio (ours / mitsuba) |")
-    print("|---|---|---|---|---|---|")
+    base_cols = " baseline paths/s | baseline / mitsuba |" if args.baseline else ""
+    print("| scene | spp | round | ltcguide paths/s | mitsuba llvm_ad_rgb paths/s | "
+          "ratio (ours / mitsuba) |" + base_cols)
+    print("|---|---|---|---|---|---|" + ("---|---|" if args.baseline else ""))
     summary = []
     for d in args.scenes:
         name = os.path.basename(d.rstrip("/"))
@@ -89,8 +93,12 @@ def main():
                 sys.exit(f"{name}: max_depth differs (ours {depth}, mitsuba {mitsuba.max_depth})")
             theirs, tm = mitsuba.render(args.spp, seed=r)
             ratios.append(ours / theirs)
+            extra = ""
+            if args.baseline:
+                base, tb, _ = ltcguide_render(args.baseline, xml, args.spp, args.threads, seed=r)
+                extra = f" {base:,.0f} ({tb:.2f} s) | {base / theirs:.2f} |"
             print(f"| {name} | {args.spp} | {r + 1} | {ours:,.0f} ({ts:.2f} s) | "
-                  f"{theirs:,.0f} ({tm:.2f} s) | {ours / theirs:.2f} |", flush=True)
+                  f"{theirs:,.0f} ({tm:.2f} s) | {ours / theirs:.2f} |{extra}", flush=True)
         summary.append((name, statistics.median(ratios), min(ratios), max(ratios)))
     print()
     print("| scene | median ratio | min | max |")
