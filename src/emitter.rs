@@ -23,6 +23,9 @@ pub enum Light {
     Mesh {
         radiance: Spectrum,
         triangles: Vec<EmitterTriangle>,
+        /// Unit geometric normal of each triangle, computed once rather
+        /// than per shadow ray (a square root and a division each).
+        normals: Vec<Vec3>,
         area_distribution: Distribution1D,
         area: f32,
     },
@@ -113,7 +116,13 @@ impl Lights {
         if self.lights.is_empty() {
             return None;
         }
-        let (index, select_pdf, _) = self.selection.sample_discrete(u_select);
+        // One light (the common case) needs no search of the selection CDF.
+        let (index, select_pdf) = if self.lights.len() == 1 {
+            (0, self.selection.discrete_pdf(0))
+        } else {
+            let (index, pdf, _) = self.selection.sample_discrete(u_select);
+            (index, pdf)
+        };
         if select_pdf <= 0.0 {
             return None;
         }
@@ -216,6 +225,10 @@ impl Light {
         Some(Light::Mesh {
             radiance,
             area_distribution: Distribution1D::new(&areas),
+            normals: triangles
+                .iter()
+                .map(|t| t.e1.cross(t.e2).normalize())
+                .collect(),
             triangles,
             area,
         })
@@ -226,6 +239,7 @@ impl Light {
             Light::Mesh {
                 radiance,
                 triangles,
+                normals,
                 area_distribution,
                 area,
             } => {
@@ -233,7 +247,7 @@ impl Light {
                 let t = &triangles[i];
                 let b = square_to_triangle(Vec2::new(ux, u.y));
                 let q = t.p0 + t.e1 * b.x + t.e2 * b.y;
-                let ng = t.e1.cross(t.e2).normalize();
+                let ng = normals[i];
                 let ns = match t.n {
                     Some(n) => {
                         (n[0] * (1.0 - b.x - b.y) + n[1] * b.x + n[2] * b.y).normalize_or(ng)

@@ -20,7 +20,7 @@ pub fn default_ltc_table() -> Result<&'static LtcTable, String> {
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::PathSettings;
 use crate::integrator::stats::RenderCounters;
-use crate::integrator::{render_pass, thread_pool};
+use crate::integrator::{render_passes_into, thread_pool};
 use crate::scene::Scene;
 use serde::Serialize;
 use std::time::Instant;
@@ -394,10 +394,25 @@ fn render_unguided(
             (_, Some(s)) if clock.seconds() >= s && pass > 0 => break,
             _ => {}
         }
-        let out = render_pass(scene, &NoGuide, &opts.path, opts.seed, pass, None);
-        film.merge(&out.film);
-        counters.add(&out.counters);
-        pass += 1;
+        // A sample budget without snapshots renders several passes per
+        // call (pixel-major, see `render_passes_into`); a time budget or
+        // snapshots check the clock after every pass. Capped so that the
+        // progress bar still moves.
+        let n = match opts.budget {
+            Budget::Spp(n) if snapshots.times.is_empty() => (n as u64 - pass).min(16),
+            _ => 1,
+        };
+        let (c, _) = render_passes_into(
+            scene,
+            &NoGuide,
+            &opts.path,
+            opts.seed,
+            pass..pass + n,
+            None,
+            &mut film,
+        );
+        counters.add(&c);
+        pass += n;
         let now = clock.seconds();
         if snapshots.due(now) {
             clock.excluding(|| snapshots.take(now, film.spp, film.image()));

@@ -88,13 +88,30 @@ fn bilinear_periodic(img: &RgbImage, uv: Vec2) -> Spectrum {
     }
     let (fx, fy) = (x.floor(), y.floor());
     let (tx, ty) = (x - fx, y - fy);
-    let x0 = (fx as i64).rem_euclid(w) as usize;
-    let y0 = (fy as i64).rem_euclid(h) as usize;
-    let x1 = (x0 + 1) % img.width;
-    let y1 = (y0 + 1) % img.height;
+    let x0 = wrap(fx as i64, w);
+    let y0 = wrap(fy as i64, h);
+    let x1 = if x0 + 1 == img.width { 0 } else { x0 + 1 };
+    let y1 = if y0 + 1 == img.height { 0 } else { y0 + 1 };
     let top = img.get(x0, y0) * (1.0 - tx) + img.get(x1, y0) * tx;
     let bottom = img.get(x0, y1) * (1.0 - tx) + img.get(x1, y1) * tx;
     top * (1.0 - ty) + bottom * ty
+}
+
+/// `i.rem_euclid(n)` without a division in the common case: most lookups
+/// fall inside the image or one period off, and the texel loads wait for
+/// this index.
+#[inline]
+fn wrap(i: i64, n: i64) -> usize {
+    let r = if (0..n).contains(&i) {
+        i
+    } else if (-n..0).contains(&i) {
+        i + n
+    } else if (n..2 * n).contains(&i) {
+        i - n
+    } else {
+        i.rem_euclid(n)
+    };
+    r as usize
 }
 
 #[inline]
@@ -151,6 +168,17 @@ pub fn load_image(path: &Path, raw: bool) -> Result<RgbImage, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wrap_is_rem_euclid() {
+        for n in [1i64, 2, 3, 7, 512] {
+            for i in -4 * n - 3..4 * n + 3 {
+                assert_eq!(wrap(i, n), i.rem_euclid(n) as usize, "i={i} n={n}");
+            }
+        }
+        assert_eq!(wrap(i64::MIN, 7), i64::MIN.rem_euclid(7) as usize);
+        assert_eq!(wrap(i64::MAX, 7), i64::MAX.rem_euclid(7) as usize);
+    }
 
     #[test]
     fn checkerboard_follows_mitsuba_parity_rule() {

@@ -8,7 +8,6 @@ pub mod path;
 pub mod stats;
 
 use crate::film::image::Film;
-use crate::math::Spectrum;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec2;
@@ -47,50 +46,89 @@ pub fn render_pass<G: Guide>(
     pass: u64,
     pixel_estimates: Option<&[f32]>,
 ) -> PassOutput<G::Recorder> {
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    let (counters, recorders) = render_passes_into(
+        scene,
+        guide,
+        settings,
+        seed,
+        pass..pass + 1,
+        pixel_estimates,
+        &mut film,
+    );
+    PassOutput {
+        film,
+        counters,
+        recorders,
+    }
+}
+
+/// Renders the passes `passes` and adds them straight into `film`. Each
+/// worker accumulates its own rows: no per-pass image to allocate (page
+/// faults), add and merge on one thread while the other waits.
+///
+/// A pixel's samples of all the passes are traced one after the other, so
+/// consecutive paths start alike and find the BVH nodes, triangles and
+/// texels of their first hits in cache; a pass-major order had evicted
+/// them by the next pass. Every sample keeps its pass's random stream and
+/// the film adds the passes in order, so the image is the same as from
+/// one pass at a time.
+pub fn render_passes_into<G: Guide>(
+    scene: &Scene,
+    guide: &G,
+    settings: &PathSettings,
+    seed: u64,
+    passes: std::ops::Range<u64>,
+    pixel_estimates: Option<&[f32]>,
+    film: &mut Film,
+) -> (RenderCounters, Vec<G::Recorder>) {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let stream_seed = pass_seed(seed, pass);
-    let mut pixels = vec![Spectrum::ZERO; w * h];
-    let results: Vec<(RenderCounters, G::Recorder)> = pixels
-        .par_chunks_mut(ROWS_PER_BLOCK * w)
+    assert_eq!((film.width, film.height), (w, h), "film and camera differ");
+    let stream_seeds: Vec<u64> = passes.clone().map(|p| pass_seed(seed, p)).collect();
+    let block_len = ROWS_PER_BLOCK * w;
+    let results: Vec<(RenderCounters, G::Recorder)> = film
+        .sum
+        .par_chunks_mut(block_len)
+        .zip(film.sum_sq.par_chunks_mut(block_len))
         .enumerate()
-        .map_init(PathScratch::default, |scratch, (block, out)| {
+        .map_init(PathScratch::default, |scratch, (block, (sum, sum_sq))| {
             let mut counters = RenderCounters::default();
             let mut recorder = guide.new_recorder();
-            for (k, px) in out.iter_mut().enumerate() {
-                let index = block * ROWS_PER_BLOCK * w + k;
+            for (k, (s, q)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
+                let index = block * block_len + k;
                 let (x, y) = (index % w, index / w);
-                let mut rng = Rng::new(stream_seed, index as u64);
-                let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
-                let (o, d) = scene.camera.ray(film_pos);
-                *px = trace_path(
-                    scene,
-                    guide,
-                    settings,
-                    o,
-                    d,
-                    &mut rng,
-                    &mut counters,
-                    scratch,
-                    &mut recorder,
-                    pixel_estimates.map_or(0.0, |e| e[index]),
-                );
+                for &stream_seed in &stream_seeds {
+                    let mut rng = Rng::new(stream_seed, index as u64);
+                    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+                    let (o, d) = scene.camera.ray(film_pos);
+                    let v = trace_path(
+                        scene,
+                        guide,
+                        settings,
+                        o,
+                        d,
+                        &mut rng,
+                        &mut counters,
+                        scratch,
+                        &mut recorder,
+                        pixel_estimates.map_or(0.0, |e| e[index]),
+                    );
+                    // What `Film::add_pass` does for this pixel.
+                    *s += v;
+                    *q += v * v;
+                }
             }
             (counters, recorder)
         })
         .collect();
-    let mut film = Film::new(w, h);
-    film.add_pass(&pixels);
+    film.spp += stream_seeds.len() as u32;
     let mut counters = RenderCounters::default();
     let mut recorders = Vec::with_capacity(results.len());
     for (c, r) in results {
         counters.add(&c);
         recorders.push(r);
     }
-    PassOutput {
-        film,
-        counters,
-        recorders,
-    }
+    (counters, recorders)
 }
 
 /// Builds the thread pool a render runs in (0 = all cores).

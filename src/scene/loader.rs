@@ -447,6 +447,7 @@ impl<'a> Builder<'a> {
     fn finish(self, path: &Path) -> Result<Scene, SceneError> {
         let mut geometry = Vec::new();
         let mut triangle_shading = Vec::new();
+        let mut triangle_normals = Vec::new();
         let mut prim_shape = Vec::new();
         let mut shapes = Vec::new();
         let mut lights = Vec::new();
@@ -468,6 +469,7 @@ impl<'a> Builder<'a> {
                 }
                 geometry.push(g);
                 triangle_shading.push(TriangleShading { n: t.n, uv: t.uv });
+                triangle_normals.push(Scene::triangle_normal(&g));
                 prim_shape.push(si as u32);
             }
             let light = match (s.emitter, s.sphere) {
@@ -529,6 +531,7 @@ impl<'a> Builder<'a> {
             shapes,
             geometry,
             triangle_shading,
+            triangle_normals,
             prim_shape,
             accel,
             lights: Lights::new(lights),

@@ -43,6 +43,10 @@ pub struct Scene {
     /// Geometry in primitive-id order: all triangles, then all spheres.
     pub geometry: Vec<PrimGeom>,
     pub triangle_shading: Vec<TriangleShading>,
+    /// Unit geometric normal of each triangle (indexed by primitive id),
+    /// computed once: per hit it was a square root and a division on the
+    /// path's critical path.
+    pub triangle_normals: Vec<Vec3>,
     /// Shape of each primitive.
     pub prim_shape: Vec<u32>,
     pub accel: Accel,
@@ -85,9 +89,9 @@ impl Scene {
 
     pub fn interaction(&self, o: Vec3, d: Vec3, hit: Hit) -> Interaction {
         let g = &self.geometry[hit.prim as usize];
-        let p = o + d * hit.t;
         let shape = self.prim_shape[hit.prim as usize];
         if g.kind == KIND_SPHERE {
+            let p = o + d * hit.t;
             let local = (p - g.p0) / g.e1.x;
             let n = local.normalize_or(Vec3::Z) * g.e2.x.signum_or_one();
             let theta = local.z.clamp(-1.0, 1.0).acos();
@@ -106,20 +110,13 @@ impl Scene {
                 prim: hit.prim,
             };
         }
-        // Barycentrics of p in the triangle.
-        let v = p - g.p0;
-        let (d00, d01, d11) = (g.e1.dot(g.e1), g.e1.dot(g.e2), g.e2.dot(g.e2));
-        let (d20, d21) = (v.dot(g.e1), v.dot(g.e2));
-        let denom = d00 * d11 - d01 * d01;
-        let (b1, b2) = if denom != 0.0 {
-            let b1 = ((d11 * d20 - d01 * d21) / denom).clamp(0.0, 1.0);
-            let b2 = ((d00 * d21 - d01 * d20) / denom).clamp(0.0, 1.0 - b1);
-            (b1, b2)
-        } else {
-            (1.0 / 3.0, 1.0 / 3.0)
-        };
+        // The triangle test's barycentrics: no re-projection of p (two
+        // divisions and nine dot products per hit). The clamps keep the
+        // point inside the triangle against rounding.
+        let b1 = hit.uv.0.clamp(0.0, 1.0);
+        let b2 = hit.uv.1.clamp(0.0, 1.0 - b1);
         let b0 = 1.0 - b1 - b2;
-        let ng = g.e1.cross(g.e2).normalize_or(Vec3::Z);
+        let ng = self.triangle_normals[hit.prim as usize];
         let sh = &self.triangle_shading[hit.prim as usize];
         let ns = match sh.n {
             Some(n) => (n[0] * b0 + n[1] * b1 + n[2] * b2).normalize_or(ng),
@@ -138,6 +135,11 @@ impl Scene {
 
     pub fn material_of(&self, it: &Interaction) -> &Material {
         &self.materials[self.shapes[it.shape as usize].material as usize]
+    }
+
+    /// The geometric normal `interaction` reports for a triangle.
+    pub fn triangle_normal(g: &PrimGeom) -> Vec3 {
+        g.e1.cross(g.e2).normalize_or(Vec3::Z)
     }
 
     pub fn triangle_count(&self) -> usize {

@@ -1,11 +1,13 @@
 //! Ray queries over the scene's primitives: an obvhs compressed-wide BVH
 //! (CWBVH, Ylitie et al. 2017) with our own primitive tests.
 //!
-//! Primitives are reordered into BVH leaf order after the build, so a leaf's
-//! primitive index addresses geometry directly without the indirection
-//! through `primitive_indices` in the inner loop.
+//! Each node carries the primitives of its leaf children (see [`leaf`]):
+//! triangles in 8-wide packets, so a node's hit leaves are tested together.
+
+mod leaf;
 
 use glam::{Vec3, Vec3A};
+use leaf::{Ray8, SphereRef, Tri8, pack_node_leaves};
 use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, cwbvh::builder::build_cwbvh};
 use std::time::Duration;
 use wide::f32x8;
@@ -130,6 +132,9 @@ pub fn sphere_intersect(c: Vec3, r: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32)
 pub struct Hit {
     pub prim: u32,
     pub t: f32,
+    /// Barycentrics of the hit point (weights of p1 and p2) from the
+    /// triangle test; zero for spheres.
+    pub uv: (f32, f32),
 }
 
 /// A BVH8 node decoded from obvhs's compressed node: the eight child boxes
@@ -140,12 +145,18 @@ pub struct Hit {
 struct Node8 {
     lo: [[f32; 8]; 3],
     hi: [[f32; 8]; 3],
-    /// Internal: node index. Leaf: `LEAF | count << 29 | first primitive`.
+    /// Node index of each internal child.
     child: [u32; 8],
+    /// Bit s set when slot s is a leaf.
+    leaf_mask: u32,
+    /// This node's leaf triangles: `packets[packet..packet + n_packets]`.
+    packet: u32,
+    n_packets: u32,
+    /// This node's leaf spheres: `spheres[sphere..sphere + n_spheres]`.
+    sphere: u32,
+    n_spheres: u32,
 }
 
-const LEAF: u32 = 1 << 31;
-const LEAF_START_MASK: u32 = (1 << 29) - 1;
 const STACK_SIZE: usize = 128;
 
 /// The scene's BVH: built by obvhs (PLOC + reinsertion, collapsed to a
@@ -157,12 +168,8 @@ const STACK_SIZE: usize = 128;
 /// closing notes for the measured ratio).
 pub struct Accel {
     nodes: Vec<Node8>,
-    /// Geometry in BVH leaf order.
-    prims: Vec<PrimGeom>,
-    /// Original primitive index of each entry of `prims`.
-    prim_ids: Vec<u32>,
-    /// Leaf-order index of each original primitive.
-    order_of: Vec<u32>,
+    packets: Vec<Tri8>,
+    spheres: Vec<SphereRef>,
 }
 
 impl Accel {
@@ -170,9 +177,8 @@ impl Accel {
         if geometry.is_empty() {
             return Accel {
                 nodes: Vec::new(),
-                prims: Vec::new(),
-                prim_ids: Vec::new(),
-                order_of: Vec::new(),
+                packets: Vec::new(),
+                spheres: Vec::new(),
             };
         }
         let bounds: Vec<BoundsOnly> = geometry.iter().map(|g| BoundsOnly(g.aabb())).collect();
@@ -181,17 +187,11 @@ impl Accel {
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
-        let prim_ids: Vec<u32> = bvh.primitive_indices.clone();
-        let prims = prim_ids.iter().map(|&i| geometry[i as usize]).collect();
-        let mut order_of = vec![u32::MAX; geometry.len()];
-        for (k, &i) in prim_ids.iter().enumerate() {
-            order_of[i as usize] = k as u32;
-        }
+        let (nodes, packets, spheres) = decode_nodes(&bvh, geometry);
         Accel {
-            nodes: decode_nodes(&bvh),
-            prims,
-            prim_ids,
-            order_of,
+            nodes,
+            packets,
+            spheres,
         }
     }
 
@@ -200,10 +200,12 @@ impl Accel {
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = tmax;
         let mut best_prim = u32::MAX;
-        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim, u32::MAX);
-        (best_prim != u32::MAX).then(|| Hit {
-            prim: self.prim_ids[best_prim as usize],
+        let mut uv = (0.0, 0.0);
+        self.traverse::<false>(o, d, tmin, &mut best, &mut best_prim, &mut uv, u32::MAX);
+        (best_prim != u32::MAX).then_some(Hit {
+            prim: best_prim,
             t: best,
+            uv,
         })
     }
 
@@ -222,12 +224,8 @@ impl Accel {
     pub fn occluded_except(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, skip: u32) -> bool {
         let mut t = tmax;
         let mut prim = u32::MAX;
-        let skip = self
-            .order_of
-            .get(skip as usize)
-            .copied()
-            .unwrap_or(u32::MAX);
-        self.traverse::<true>(o, d, tmin, &mut t, &mut prim, skip);
+        let mut uv = (0.0, 0.0);
+        self.traverse::<true>(o, d, tmin, &mut t, &mut prim, &mut uv, skip);
         prim != u32::MAX
     }
 
@@ -239,6 +237,7 @@ impl Accel {
         tmin: f32,
         tmax: &mut f32,
         hit_prim: &mut u32,
+        hit_uv: &mut (f32, f32),
         skip: u32,
     ) {
         if self.nodes.is_empty() {
@@ -259,6 +258,7 @@ impl Accel {
             (inv.z < 0.0) as usize,
         );
         let tmin_v = f32x8::splat(tmin);
+        let ray = Ray8::new(o, d);
         // Uninitialised: zeroing 1 KiB per ray costs as much as traversing
         // a small scene. Only entries below `sp` are ever read.
         let mut stack = [std::mem::MaybeUninit::<(u32, f32)>::uninit(); STACK_SIZE];
@@ -290,6 +290,48 @@ impl Accel {
             if mask == 0 {
                 continue;
             }
+            let leaf_hit = mask & node.leaf_mask;
+            if leaf_hit != 0 {
+                // Lanes hit in node order (slot, then primitive), nearest
+                // strictly first: the order the scalar loop visited them in.
+                let packets = node.packet as usize..(node.packet + node.n_packets) as usize;
+                for packet in &self.packets[packets] {
+                    let active = packet.active(leaf_hit);
+                    if active == 0 {
+                        continue;
+                    }
+                    let (mut hits, t, u, v) = packet.intersect(&ray, tmin, *tmax, active);
+                    while hits != 0 {
+                        let lane = hits.trailing_zeros() as usize;
+                        hits &= hits - 1;
+                        let p = packet.prim[lane];
+                        if t[lane] < *tmax && p != skip {
+                            *tmax = t[lane];
+                            *hit_prim = p;
+                            *hit_uv = (u[lane], v[lane]);
+                            if ANY_HIT {
+                                return;
+                            }
+                        }
+                    }
+                }
+                let spheres = node.sphere as usize..(node.sphere + node.n_spheres) as usize;
+                for sphere in &self.spheres[spheres] {
+                    let t = sphere.intersect(&ray, leaf_hit, tmin, *tmax);
+                    if t < *tmax && sphere.prim != skip {
+                        *tmax = t;
+                        *hit_prim = sphere.prim;
+                        *hit_uv = (0.0, 0.0);
+                        if ANY_HIT {
+                            return;
+                        }
+                    }
+                }
+                mask &= !leaf_hit;
+            }
+            if mask == 0 {
+                continue;
+            }
             let t_near = t_near.to_array();
             // Internal children hit, to be pushed farthest first.
             let mut pending = [(0u32, 0f32); 8];
@@ -297,34 +339,17 @@ impl Accel {
             while mask != 0 {
                 let slot = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                let child = node.child[slot];
-                if child & LEAF != 0 {
-                    let start = (child & LEAF_START_MASK) as usize;
-                    let count = ((child >> 29) & 3) as usize;
-                    for p in start..start + count {
-                        if p as u32 == skip {
-                            continue;
-                        }
-                        let t = self.prims[p].intersect(o, d, tmin, *tmax);
-                        if t < *tmax {
-                            *tmax = t;
-                            *hit_prim = p as u32;
-                            if ANY_HIT {
-                                return;
-                            }
-                        }
-                    }
-                } else {
-                    // Insertion sort by decreasing distance (≤ 8 entries).
-                    let t = t_near[slot];
-                    let mut k = n_pending;
-                    while k > 0 && pending[k - 1].1 < t {
-                        pending[k] = pending[k - 1];
-                        k -= 1;
-                    }
-                    pending[k] = (child, t);
-                    n_pending += 1;
+                let t = t_near[slot];
+                let mut k = n_pending;
+                // Insertion sort by decreasing distance (≤ 8 entries).
+                // Occlusion asks whether anything is hit, not what is hit
+                // first, so its children go in slot order unsorted.
+                while !ANY_HIT && k > 0 && pending[k - 1].1 < t {
+                    pending[k] = pending[k - 1];
+                    k -= 1;
                 }
+                pending[k] = (node.child[slot], t);
+                n_pending += 1;
             }
             if sp + n_pending > STACK_SIZE {
                 // Unreachable for obvhs trees (depth ≪ 16); never overflow.
@@ -355,17 +380,27 @@ fn safe_inverse(x: f32) -> f32 {
 }
 
 /// Decodes obvhs's quantised child boxes (plane = p + 2^(e−127)·q) into
-/// full-precision boxes. The quantisation rounds outwards, so the decoded
-/// box still contains the child; empty slots get an inverted box.
-fn decode_nodes(bvh: &CwBvh) -> Vec<Node8> {
-    bvh.nodes
+/// full-precision boxes and packs each node's leaf primitives. The
+/// quantisation rounds outwards, so the decoded box still contains the
+/// child; empty slots get an inverted box.
+fn decode_nodes(bvh: &CwBvh, geometry: &[PrimGeom]) -> (Vec<Node8>, Vec<Tri8>, Vec<SphereRef>) {
+    let mut packets = Vec::new();
+    let mut spheres = Vec::new();
+    let nodes = bvh
+        .nodes
         .iter()
         .map(|n| {
             let mut out = Node8 {
                 lo: [[f32::INFINITY; 8]; 3],
                 hi: [[f32::NEG_INFINITY; 8]; 3],
                 child: [0; 8],
+                leaf_mask: 0,
+                packet: packets.len() as u32,
+                n_packets: 0,
+                sphere: spheres.len() as u32,
+                n_spheres: 0,
             };
+            let mut leaves = Vec::new();
             for slot in 0..8 {
                 if n.is_child_empty(slot) {
                     continue;
@@ -375,17 +410,20 @@ fn decode_nodes(bvh: &CwBvh) -> Vec<Node8> {
                     out.lo[axis][slot] = b.min[axis];
                     out.hi[axis][slot] = b.max[axis];
                 }
-                out.child[slot] = if n.is_leaf(slot) {
+                if n.is_leaf(slot) {
                     let (start, count) = n.child_primitives(slot);
-                    debug_assert!(start <= LEAF_START_MASK && (1..=3).contains(&count));
-                    LEAF | (count << 29) | start
+                    out.leaf_mask |= 1 << slot;
+                    leaves.push((slot, start as usize..(start + count) as usize));
                 } else {
-                    n.child_node_index(slot)
-                };
+                    out.child[slot] = n.child_node_index(slot);
+                }
             }
+            out.n_packets = pack_node_leaves(&leaves, bvh, geometry, &mut packets, &mut spheres);
+            out.n_spheres = spheres.len() as u32 - out.sphere;
             out
         })
-        .collect()
+        .collect();
+    (nodes, packets, spheres)
 }
 
 struct BoundsOnly(Aabb);
