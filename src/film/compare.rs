@@ -26,6 +26,24 @@ impl BlockComparison {
         self.z.iter().map(|z| z * z).sum::<f64>() / self.z.len().max(1) as f64
     }
 
+    /// Median of z² over blocks: ≈ 0.455 (the χ²₁ median) when the images
+    /// agree. Unlike the mean it survives a few blocks whose variance was
+    /// underestimated, which heavy-tailed estimators (roulette with large
+    /// weights) produce at low sample counts.
+    pub fn median_z2(&self) -> f64 {
+        let mut z2: Vec<f64> = self.z.iter().map(|z| z * z).collect();
+        if z2.is_empty() {
+            return 0.0;
+        }
+        z2.sort_by(f64::total_cmp);
+        let n = z2.len();
+        if n % 2 == 1 {
+            z2[n / 2]
+        } else {
+            0.5 * (z2[n / 2 - 1] + z2[n / 2])
+        }
+    }
+
     pub fn max_abs_z(&self) -> f64 {
         self.z.iter().fold(0.0f64, |m, z| m.max(z.abs()))
     }
