@@ -115,3 +115,22 @@ pub fn compare_blocks(
         z_global,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::BlockComparison;
+
+    #[test]
+    fn median_z2_matches_hand_computed_values() {
+        let c = |z: Vec<f64>| BlockComparison {
+            z,
+            mean_a: 0.0,
+            mean_b: 0.0,
+            z_global: 0.0,
+        };
+        // z² = 9, 1, 4 → median 4; one huge outlier does not move it much.
+        assert_eq!(c(vec![3.0, -1.0, 2.0]).median_z2(), 4.0);
+        assert_eq!(c(vec![3.0, -1.0, 2.0, 1e6]).median_z2(), 6.5);
+        assert_eq!(c(vec![]).median_z2(), 0.0);
+    }
+}
