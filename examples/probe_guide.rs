@@ -1,7 +1,7 @@
 //! Diagnostic: how close is a trained radiance guide to the incident
 //! radiance it should learn, at the first hit of one pixel?
 //! Usage: probe_guide SCENE X Y SPP
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use ltcguide::directional::square_to_dir;
 use ltcguide::guiding::descent::{RadianceWeights, pdf_direction};
 use ltcguide::integrator::guide::NoGuide;
@@ -129,5 +129,4 @@ fn main() {
         let g: String = (0..G).map(|cx| shade(guide[cy * G + cx], mg)).collect();
         println!("{l}   {g}");
     }
-    let _ = Vec3::ZERO;
 }
