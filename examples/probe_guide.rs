@@ -29,10 +29,7 @@ fn main() {
         seed: 1,
         threads: 2,
         path: settings,
-        progress: false,
         snapshot_times: vec![],
-        bsdf_fraction: None,
-        product_kernel: Default::default(),
         use_plan: false,
         ..Default::default()
     };

@@ -38,13 +38,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
             method: Method::Pt,
             budget: Budget::Spp(256),
             seed: 77,
-            threads: 0,
             path: settings(&scene, Method::Pt),
-            progress: false,
-            snapshot_times: Vec::new(),
-            bsdf_fraction: None,
-            product_kernel: Default::default(),
-            use_plan: true,
             ..Default::default()
         },
     )

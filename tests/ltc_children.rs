@@ -153,13 +153,7 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
     let mut worst = 0.0f64;
     let mut compared = 0usize;
     for trial in 0..300 {
-        let n = Vec3::new(
-            rng.next_f32() - 0.5,
-            rng.next_f32() - 0.5,
-            rng.next_f32() - 0.5,
-        )
-        .normalize();
-        let frame = Frame::from_normal(n);
+        let frame = random_frame(&mut rng);
         let alpha = [1e-3f32, 0.01, 0.1, 0.3, 0.5][trial % 5];
         let theta = 85.0 * rng.next_f64();
         let s = shading(Some(alpha), theta, &frame, &all_glossy());
@@ -414,13 +408,7 @@ fn coarse_levels_match_the_f64_reference() {
     let mut rng = Rng::new(31, 7);
     let mut worst = 0.0f64;
     for trial in 0..400 {
-        let n = Vec3::new(
-            rng.next_f32() - 0.5,
-            rng.next_f32() - 0.5,
-            rng.next_f32() - 0.5,
-        )
-        .normalize();
-        let frame = Frame::from_normal(n);
+        let frame = random_frame(&mut rng);
         let alpha = [1e-3f32, 0.01, 0.1, 0.3, 0.5][trial % 5];
         let s = shading(Some(alpha), 85.0 * rng.next_f64(), &frame, &all_glossy());
         let g = s.glossy[0];
@@ -446,4 +434,16 @@ fn coarse_levels_match_the_f64_reference() {
         }
     }
     println!("coarse kernels vs f64 reference: worst absolute difference {worst:.1e}");
+}
+
+/// A shading frame around a random normal (uniform in a cube, normalised:
+/// not uniform on the sphere, which these tests do not need).
+fn random_frame(rng: &mut Rng) -> Frame {
+    let n = Vec3::new(
+        rng.next_f32() - 0.5,
+        rng.next_f32() - 0.5,
+        rng.next_f32() - 0.5,
+    )
+    .normalize();
+    Frame::from_normal(n)
 }

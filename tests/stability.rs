@@ -321,17 +321,12 @@ fn stiff_scene_renders_finite_and_methods_agree() {
             method,
             budget: Budget::Spp(spp),
             seed: 9,
-            threads: 0,
             path: PathSettings {
                 nee: true,
                 max_depth: scene.max_depth,
                 roulette: RouletteMode::Classic,
             },
-            progress: false,
-            snapshot_times: Vec::new(),
-            bsdf_fraction: None,
             product_kernel: ProductKernel::Simd,
-            use_plan: true,
             ..Default::default()
         };
         render(&scene, &opts).unwrap()

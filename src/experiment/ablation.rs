@@ -47,8 +47,6 @@ pub fn run_ablation(
                 threads,
                 path,
                 progress,
-                snapshot_times: Vec::new(),
-                bsdf_fraction: None,
                 product_kernel: kernel,
                 use_plan,
                 ..Default::default()

@@ -103,9 +103,6 @@ pub fn run_compare(
                 },
                 progress: opts.progress,
                 snapshot_times: snapshot_times(opts.seconds),
-                bsdf_fraction: None,
-                product_kernel: Default::default(),
-                use_plan: true,
                 ..Default::default()
             };
             let result = render(scene, &ropts)?;

@@ -107,13 +107,7 @@ pub fn options(method: Method, spp: u32, seed: u64, path: PathSettings) -> Rende
         method,
         budget: Budget::Spp(spp),
         seed,
-        threads: 0,
         path,
-        progress: false,
-        snapshot_times: Vec::new(),
-        bsdf_fraction: None,
-        product_kernel: Default::default(),
-        use_plan: true,
         ..Default::default()
     }
 }
