@@ -1,11 +1,12 @@
 //! The learned BSDF fraction, adjoint-driven Russian roulette and the
 //! training schedule.
 
+use ltcguide::film::image::Film;
 use ltcguide::guiding::adam::{AdamConfig, AdamStats, BsdfFraction, NonFiniteGradient};
 use ltcguide::guiding::adrrs::{Adrrs, AdrrsStats};
-use ltcguide::guiding::schedule::{
-    Budget, IterationReport, Schedule, Step, combine_inverse_variance, mean_clamped_variance,
-};
+use ltcguide::guiding::schedule::{Budget, IterationReport, Schedule, Step};
+use ltcguide::guiding::train::combine;
+use ltcguide::math::Spectrum;
 use ltcguide::sampling::Rng;
 
 /// 1D problem on [0,1]: p_bsdf = 2x, p_guide = 2(1−x), integrand
@@ -308,24 +309,37 @@ fn schedule_stops_when_extrapolated_variance_rises() {
     assert_eq!(steps.len(), 11); // 9 training iterations (511 spp), final 513, done
 }
 
+/// The renderer's combination (`train::combine`) on two one-pixel films:
+/// A = {1, 3}, B = {4, 8}. Pooled mean 4; spreads about it: A gives
+/// ((1 − 4)² + (3 − 4)²)/2 = 5, B gives (0² + 4²)/2 = 8; variances of the
+/// means 2.5 and 4, so
+/// weights 0.4 and 0.25, normalised 8/13 and 5/13. Image
+/// (8/13)·2 + (5/13)·6 = 46/13; variance (8/13)²·5/2 + (5/13)²·8/2 = 260/169.
 #[test]
 fn inverse_variance_combination_matches_hand_computation() {
-    let a = [[1.0f32, 2.0, 3.0], [0.0, 0.0, 10.0]];
-    let b = [[3.0f32, 4.0, 5.0], [4.0, f32::NAN, 2.0]];
-    let c = [[100.0f32; 3], [100.0; 3]];
-    let out = combine_inverse_variance(&[(&a, 1.0), (&b, 3.0), (&c, f64::NAN)]).unwrap();
-    // weights 1 and 1/3: (x_a + x_b/3) / (4/3)
-    let close = |x: [f32; 3], y: [f32; 3]| (0..3).all(|c| (x[c] - y[c]).abs() < 1e-6);
-    assert!(close(out[0], [1.5, 2.5, 3.5]), "{:?}", out[0]);
-    // NaN pixel in b: that channel is a's alone. (0 + 4/3)/(4/3) = 1,
-    // (10 + 2/3)/(4/3) = 8.
-    assert!(close(out[1], [1.0, 0.0, 8.0]), "{:?}", out[1]);
-    // Mismatched sizes or nothing usable: no image.
-    assert!(combine_inverse_variance(&[(&a, 1.0), (&a[..1], 1.0)]).is_none());
-    assert!(combine_inverse_variance(&[(&a, f64::INFINITY)]).is_none());
-    // Clamped mean variance: [1, 2, 1000→10, NaN→10] / 4.
-    assert_eq!(
-        mean_clamped_variance(&[1.0, 2.0, 1000.0, f32::NAN], 10.0),
-        23.0 / 4.0
+    let film = |samples: [f32; 2]| {
+        let mut f = Film::new(1, 1);
+        for x in samples {
+            f.add_pass(&[Spectrum::splat(x)]);
+        }
+        f
+    };
+    let (a, b, empty) = (film([1.0, 3.0]), film([4.0, 8.0]), Film::new(1, 1));
+    let (image, variance, weights) = combine(&[&a, &b, &empty]).unwrap();
+    let close = |x: f64, y: f64| (x - y).abs() < 1e-5 * y.abs().max(1.0);
+    for c in 0..3 {
+        assert!(
+            close(image.pixels[0][c] as f64, 46.0 / 13.0),
+            "{:?}",
+            image.pixels[0]
+        );
+    }
+    assert!(close(variance[0] as f64, 260.0 / 169.0), "{variance:?}");
+    // The film without samples takes no part.
+    assert_eq!(weights.len(), 2);
+    assert!(
+        close(weights[0], 8.0 / 13.0) && close(weights[1], 5.0 / 13.0),
+        "{weights:?}"
     );
+    assert!(combine(&[&empty]).is_none());
 }

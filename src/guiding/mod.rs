@@ -32,7 +32,7 @@
 //!     //   record_pass(&mut tree, &buffers);
 //!     // after the iteration: tree.refine(k); schedule.report(step, report);
 //!   } } }
-//! // final image: combine_inverse_variance over the last iterations.
+//! // final image: train::combine, all iterations weighted by inverse variance.
 //! ```
 
 pub mod adam;

@@ -29,8 +29,9 @@ pub struct IterationReport {
     pub spp: u64,
     /// Wall-clock seconds, guide refinement included.
     pub seconds: f64,
-    /// Mean over pixels of the (clamped) variance of the iteration's pixel
-    /// estimates, see [`mean_clamped_variance`].
+    /// Mean over pixels of the variance of the iteration's pixel estimates
+    /// (unclamped, so that it does not depend on the sample count; see
+    /// `train.rs`).
     pub mean_variance: f64,
 }
 
@@ -152,64 +153,4 @@ impl Schedule {
         }
         self.reports.push(r);
     }
-}
-
-/// Mean of per-pixel variances, each clamped to `clamp` so a few fireflies do
-/// not decide an image's weight; non-finite entries count as `clamp`.
-pub fn mean_clamped_variance(pixel_variances: &[f32], clamp: f32) -> f64 {
-    if pixel_variances.is_empty() {
-        return 0.0;
-    }
-    let c = clamp as f64;
-    let sum: f64 = pixel_variances
-        .iter()
-        .map(|&v| {
-            let v = v as f64;
-            if v.is_finite() { v.clamp(0.0, c) } else { c }
-        })
-        .sum();
-    sum / pixel_variances.len() as f64
-}
-
-/// Combines images by inverse variance: I = Σ_i I_i/v_i / Σ_i 1/v_i per pixel
-/// and channel. Images with non-finite or negative variance are left out; a
-/// zero variance is treated as the smallest positive one (that image then
-/// dominates, as it should). Non-finite pixel values are left out of that
-/// pixel's sum. Returns `None` if the images differ in size or none is
-/// usable.
-pub fn combine_inverse_variance(images: &[(&[[f32; 3]], f64)]) -> Option<Vec<[f32; 3]>> {
-    let len = images.first()?.0.len();
-    if images.iter().any(|(img, _)| img.len() != len) {
-        return None;
-    }
-    let weighted: Vec<(&[[f32; 3]], f64)> = images
-        .iter()
-        .filter(|(_, v)| v.is_finite() && *v >= 0.0)
-        .map(|&(img, v)| (img, 1.0 / v.max(f64::MIN_POSITIVE)))
-        .collect();
-    if weighted.is_empty() {
-        return None;
-    }
-    // Rescale so the largest weight is 1 and 1/MIN_POSITIVE cannot overflow
-    // a sum.
-    let wmax = weighted.iter().map(|w| w.1).fold(0.0, f64::max);
-    let out = (0..len)
-        .map(|p| {
-            let mut px = [0f32; 3];
-            for (c, out) in px.iter_mut().enumerate() {
-                let (mut num, mut den) = (0.0f64, 0.0f64);
-                for &(img, w) in &weighted {
-                    let x = img[p][c] as f64;
-                    if x.is_finite() {
-                        let w = w / wmax;
-                        num += w * x;
-                        den += w;
-                    }
-                }
-                *out = if den > 0.0 { (num / den) as f32 } else { 0.0 };
-            }
-            px
-        })
-        .collect();
-    Some(out)
 }

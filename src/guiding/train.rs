@@ -27,7 +27,7 @@ pub struct IterationSummary {
     pub spp: u32,
     pub seconds: f64,
     pub training: bool,
-    /// Mean (clamped) variance of the iteration's pixel estimates.
+    /// Mean variance of the iteration's pixel estimates (unclamped).
     pub mean_variance: f64,
     /// Weight of the iteration in the final combination.
     pub weight: f64,
