@@ -298,8 +298,12 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     let png = args.out.with_extension("png");
     write_png(&png, &result.image)?;
     let s = &result.stats;
-    if let Some(g) = s.guiding.as_ref().filter(|g| !g.fallback.is_empty()) {
-        eprintln!("{}", g.fallback);
+    if let Some(g) = s.guiding.as_ref() {
+        for note in [&g.weights_check, &g.fallback] {
+            if !note.is_empty() {
+                eprintln!("{note}");
+            }
+        }
     }
     eprintln!(
         "{}: {} spp in {:.2} s ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",

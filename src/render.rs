@@ -312,7 +312,18 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                     let model = ProductModel {
                         table: default_ltc_table()?,
                         kernel: opts.product_kernel,
-                        options: LtcOptions::default(),
+                        options: LtcOptions {
+                            deep_cell_size: std::env::var("LTCGUIDE_DEEP")
+                                .ok()
+                                .and_then(|v| v.parse().ok())
+                                .unwrap_or(LtcOptions::default().deep_cell_size),
+                            exact_crossing_depth: std::env::var("LTCGUIDE_XDEPTH")
+                                .ok()
+                                .and_then(|v| v.parse().ok())
+                                .unwrap_or(LtcOptions::default().exact_crossing_depth),
+                            ..LtcOptions::default()
+                        },
+                        radiance_only: false,
                     };
                     guided(render_guided(
                         scene,
@@ -359,9 +370,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         counters,
         mean_rgb: mean.to_array(),
         guards,
-        plan: Some(match &guiding {
-            Some(g) if !g.fallback.is_empty() => format!("{} | {}", plan.line(), g.fallback),
-            _ => plan.line(),
+        plan: Some({
+            let mut line = plan.line();
+            for note in guiding.iter().flat_map(|g| [&g.weights_check, &g.fallback]) {
+                if !note.is_empty() {
+                    line = format!("{line} | {note}");
+                }
+            }
+            line
         }),
         guiding,
     };

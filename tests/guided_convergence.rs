@@ -237,3 +237,60 @@ fn adrrs_changes_no_expectation() {
         );
     }
 }
+
+/// With the plan on, a product run spends its fallback-check iteration
+/// alternating product and radiance weights, keeps whichever measured more
+/// efficient, and says which in its plan; either way the image converges
+/// to path tracing's. Without the plan no comparison runs.
+#[test]
+fn product_measures_its_weights_against_radiance_weights_without_bias() {
+    let scene = own_scene();
+    let path = PathSettings {
+        nee: true,
+        // Short paths keep the test cheap; the comparison is the same.
+        max_depth: Some(4),
+        roulette: RouletteMode::Classic,
+    };
+    let product = render(&scene, &options(Method::Product, 48, 7, path)).unwrap();
+    let guiding = product.stats.guiding.as_ref().unwrap();
+    eprintln!("{}", guiding.weights_check);
+    assert!(
+        guiding.weights_check.starts_with("product weights")
+            && guiding.weights_check.contains("measured on 8 + 8 spp"),
+        "{}",
+        guiding.weights_check
+    );
+    assert!(
+        product
+            .stats
+            .plan
+            .as_ref()
+            .unwrap()
+            .contains(&guiding.weights_check)
+    );
+    let pt = render(&scene, &options(Method::Pt, 48, 8, path)).unwrap();
+    let cmp = compare_blocks(
+        &product.image,
+        &product.variance,
+        &pt.image,
+        &pt.variance,
+        16,
+    )
+    .unwrap();
+    assert_blocks_agree("own scene, product with weights check vs pt", &cmp);
+
+    let unplanned = RenderOptions {
+        use_plan: false,
+        ..options(
+            Method::Product,
+            48,
+            7,
+            PathSettings {
+                max_depth: Some(2),
+                ..path
+            },
+        )
+    };
+    let r = render(&scene, &unplanned).unwrap();
+    assert_eq!(r.stats.guiding.as_ref().unwrap().weights_check, "");
+}

@@ -180,6 +180,7 @@ fn product_sampling_matches_its_pdf_chi2() {
             table,
             kernel,
             options: LtcOptions::default(),
+            radiance_only: false,
         };
         // The f64 naive kernel is slow; a third of the cases suffice for it.
         let stride = if kernel == ProductKernel::Naive { 3 } else { 1 };
@@ -221,6 +222,7 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
         table,
         kernel: ProductKernel::Simd,
         options: LtcOptions::default(),
+        radiance_only: false,
     };
     let mut rng = Rng::new(77, 1);
     let tree = random_tree(&mut rng, 200);
@@ -270,6 +272,7 @@ fn pdf_of_a_sampled_direction_is_the_returned_pdf() {
         table,
         kernel: ProductKernel::Simd,
         options: LtcOptions::default(),
+        radiance_only: false,
     };
     let mut rng = Rng::new(5, 5);
     for case in cases(&mut rng.clone()) {
@@ -297,6 +300,7 @@ fn product_weights_concentrate_where_the_bsdf_is() {
         table,
         kernel: ProductKernel::Simd,
         options: LtcOptions::default(),
+        radiance_only: false,
     };
     let tree = QuadTree::uniform(1.0);
     let case = Case {

@@ -89,12 +89,19 @@ impl AdamStats {
 pub struct NonFiniteGradient;
 
 /// Adam state of one spatial leaf. θ starts at 0 (α = ½).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfFraction {
     theta: f64,
+    /// sigmoid(θ), kept with θ: every guided vertex reads α, and an f64
+    /// exponential per vertex is measurable.
+    sigmoid_theta: f32,
     m: f64,
     v: f64,
     t: u64,
+    /// β₁ᵗ and β₂ᵗ for the bias corrections, as running products (a powf
+    /// per recorded sample is measurable too).
+    beta1_t: f64,
+    beta2_t: f64,
     /// Σ product and count over every sample offered: product = F/p_mix is
     /// an unbiased estimate of ∫F whatever the mixture, so the running mean
     /// estimates the normaliser.
@@ -102,8 +109,20 @@ pub struct BsdfFraction {
     product_count: u64,
 }
 
+impl Default for BsdfFraction {
+    fn default() -> Self {
+        BsdfFraction::with_theta(0.0)
+    }
+}
+
 #[inline]
 fn sigmoid(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+/// α itself needs only f32 (θ ∈ [−20, 20] keeps it normal).
+#[inline]
+fn sigmoid_f32(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())
 }
 
@@ -135,6 +154,21 @@ pub fn kl_gradient_theta(
 }
 
 impl BsdfFraction {
+    /// A fresh optimiser state at logit θ.
+    pub fn with_theta(theta: f64) -> Self {
+        BsdfFraction {
+            theta,
+            sigmoid_theta: sigmoid_f32(theta as f32),
+            m: 0.0,
+            v: 0.0,
+            t: 0,
+            beta1_t: 1.0,
+            beta2_t: 1.0,
+            product_sum: 0.0,
+            product_count: 0,
+        }
+    }
+
     pub fn theta(&self) -> f64 {
         self.theta
     }
@@ -146,7 +180,8 @@ impl BsdfFraction {
     /// The BSDF-sampling fraction the renderer should use.
     #[inline]
     pub fn alpha(&self, cfg: &AdamConfig) -> f32 {
-        (sigmoid(self.theta) as f32).clamp(cfg.alpha_min, cfg.alpha_max.max(cfg.alpha_min))
+        self.sigmoid_theta
+            .clamp(cfg.alpha_min, cfg.alpha_max.max(cfg.alpha_min))
     }
 
     /// One Adam step on the KL gradient of one recorded sample.
@@ -197,14 +232,17 @@ impl BsdfFraction {
         let t = self.t + 1;
         let m = cfg.beta1 * self.m + (1.0 - cfg.beta1) * g;
         let v = cfg.beta2 * self.v + (1.0 - cfg.beta2) * g2;
-        let m_hat = m / (1.0 - cfg.beta1.powf(t as f64));
-        let v_hat = v / (1.0 - cfg.beta2.powf(t as f64));
+        let (beta1_t, beta2_t) = (self.beta1_t * cfg.beta1, self.beta2_t * cfg.beta2);
+        let m_hat = m / (1.0 - beta1_t);
+        let v_hat = v / (1.0 - beta2_t);
         let theta = self.theta - cfg.learning_rate * m_hat / (v_hat.sqrt() + cfg.epsilon);
         if !(theta.is_finite() && m.is_finite() && v.is_finite()) {
             stats.rejected_non_finite += 1;
             return Err(NonFiniteGradient);
         }
         self.theta = theta.clamp(-cfg.theta_max, cfg.theta_max);
+        self.sigmoid_theta = sigmoid_f32(self.theta as f32);
+        (self.beta1_t, self.beta2_t) = (beta1_t, beta2_t);
         self.m = m;
         self.v = v;
         self.t = t;
@@ -245,10 +283,7 @@ mod tests {
         );
         assert_eq!(stats.rejected_non_finite, 1);
         assert_eq!(a.theta(), 20.0);
-        let low = BsdfFraction {
-            theta: -20.0,
-            ..Default::default()
-        };
+        let low = BsdfFraction::with_theta(-20.0);
         assert_eq!(low.alpha(&cfg), cfg.alpha_min);
     }
 }

@@ -149,18 +149,31 @@ fn step_pdf(pdf: f32, w: f32, total: f32) -> f32 {
 
 /// Chooses side 1 with probability b/(a+b) (a+b > 0) and rescales `u` to
 /// the chosen side. The choice is data, not control flow: with random `u`
-/// a branch would mispredict half the time, twice per level. The
-/// reciprocals depend only on the weights, so they overlap the
-/// u-dependency chain. A side of zero weight is never chosen (its
-/// reciprocal may be ∞ but is then not selected).
+/// a branch would mispredict half the time, twice per level. The choice
+/// compares u·(a+b) with a (no division on the u-dependency chain), and the
+/// reciprocals depend only on the weights, so they overlap that chain. A
+/// side of zero weight is never chosen (its reciprocal may be ∞ but is then
+/// not selected).
 #[inline(always)]
 fn split(u: f32, a: f32, b: f32) -> (usize, f32) {
-    let sum = a + b;
-    let p = a / sum;
-    let (inv_a, inv_b) = (sum / a, sum / b);
-    let side = (u >= p) as usize;
-    let (offset, inv) = if side == 0 { (0.0, inv_a) } else { (p, inv_b) };
-    (side, (u - offset) * inv)
+    let scaled = u * (a + b);
+    let (inv_a, inv_b) = (1.0 / a, 1.0 / b);
+    // u < 1, but u·(a+b) may still round up to a when b = 0.
+    let side = (scaled >= a && b > 0.0) as usize;
+    let (offset, inv) = if side == 0 { (0.0, inv_a) } else { (a, inv_b) };
+    (side, (scaled - offset) * inv)
+}
+
+/// One level of the 2D descent: the column from u.x with the marginal, the
+/// row from u.y within that column. Both columns' row splits are computed
+/// before the column is known, so the two splits run side by side instead
+/// of one after the other.
+#[inline(always)]
+fn choose_child(u: Vec2, w: [f32; 4]) -> (usize, Vec2) {
+    let (bx, ux) = split(u.x, w[0] + w[2], w[1] + w[3]);
+    let rows = [split(u.y, w[0], w[2]), split(u.y, w[1], w[3])];
+    let (by, uy) = rows[bx];
+    (bx | (by << 1), Vec2::new(ux, uy))
 }
 
 #[inline]
@@ -207,13 +220,10 @@ pub fn sample_descend<W: ChildWeights>(
                 root_total,
             });
         }
-        // Column (u) from the marginal, then row (v) within the column.
-        let (bx, ux) = split(u.x, w[0] + w[2], w[1] + w[3]);
-        let (by, uy) = split(u.y, w[bx], w[bx + 2]);
+        let (k, r) = choose_child(u, w);
         // The clamp also maps the NaN of 0·∞ (a subnormal weight chosen by
         // u = 0) to 0.
-        u = Vec2::new(clamp(ux), clamp(uy));
-        let k = bx | (by << 1);
+        u = Vec2::new(clamp(r.x), clamp(r.y));
         pdf = step_pdf(pdf, w[k], total);
         let child = cell.child(k);
         match node.map_or(0, |i| nodes[i].children[k]) {
@@ -396,8 +406,13 @@ mod tests {
         let (p, d) = sample(&t, &mut RadianceWeights, Vec2::ZERO).unwrap();
         assert!(p.is_finite() && p.x < 0.5 && p.y < 0.5, "{p:?}");
         assert!(d > 0.0 && d == pdf(&t, &mut RadianceWeights, p));
+        assert_eq!(split(ONE_MINUS_EPS, 1.999_999_9, 0.0).0, 0);
         assert_eq!(split(0.2, 1.0, 3.0), (0, 0.8));
         assert_eq!(split(0.625, 1.0, 3.0), (1, 0.5));
+        // The row split follows the chosen column's weights.
+        let w = [1.0, 1.0, 3.0, 0.0];
+        assert_eq!(choose_child(Vec2::new(0.2, 0.5), w).0, 2);
+        assert_eq!(choose_child(Vec2::new(0.9, 0.5), w).0, 1);
     }
 
     #[test]

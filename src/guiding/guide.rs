@@ -24,6 +24,19 @@ pub trait WeightModel: Sync {
     /// The reflected radiance towards ω_o (the adjoint ADRRS needs), given
     /// the descent's root normaliser Σ_k w_k.
     fn adjoint(&self, weights: &Self::Weights<'_>, ctx: &VertexContext, root_total: f32) -> f32;
+
+    /// What the weights are, for reports.
+    fn name(&self) -> &'static str;
+
+    /// The same guide with cheaper child weights (product → radiance), for
+    /// runs that measure whether the expensive weights pay. `None`: nothing
+    /// cheaper exists.
+    fn cheaper(&self) -> Option<Self>
+    where
+        Self: Sized,
+    {
+        None
+    }
 }
 
 /// Practical path guiding: child weights are the stored radiance.
@@ -34,6 +47,10 @@ impl WeightModel for RadianceModel {
 
     fn weights<'a>(&'a self, _ctx: &VertexContext) -> Option<RadianceWeights> {
         Some(RadianceWeights)
+    }
+
+    fn name(&self) -> &'static str {
+        "radiance"
     }
 
     /// Σ_k L_k over the four root cells is 4× the mean incident radiance;

@@ -17,10 +17,14 @@ use crate::directional::Cell;
 use crate::integrator::guide::VertexContext;
 use crate::ltc::{LtcOptions, LtcTable, ProductKernel, ShadingLtc};
 
+#[derive(Clone, Copy)]
 pub struct ProductModel<'t> {
     pub table: &'t LtcTable,
     pub kernel: ProductKernel,
     pub options: LtcOptions,
+    /// Radiance-only weights everywhere: what a run falls back to when it
+    /// measures that the product does not pay.
+    pub radiance_only: bool,
 }
 
 /// Depths below this get one memo slot each (deeper nodes are recomputed).
@@ -114,6 +118,11 @@ impl WeightModel for ProductModel<'_> {
         Self: 'a;
 
     fn weights<'a>(&'a self, ctx: &VertexContext) -> Option<ProductWeights> {
+        if self.radiance_only {
+            return Some(ProductWeights::RadianceOnly {
+                albedo: ctx.bsdf.albedo_estimate(ctx.wo_local),
+            });
+        }
         let lobes = ctx.bsdf.lobes(ctx.wo_local);
         // Two-sided mirroring flips z only (the lobes' frame).
         let w = ctx.wo_local;
@@ -147,6 +156,21 @@ impl WeightModel for ProductModel<'_> {
             ProductWeights::Product { .. } => root_total,
             ProductWeights::RadianceOnly { albedo } => albedo * 0.25 * root_total,
         }
+    }
+
+    fn name(&self) -> &'static str {
+        if self.radiance_only {
+            "radiance"
+        } else {
+            "product"
+        }
+    }
+
+    fn cheaper(&self) -> Option<Self> {
+        (!self.radiance_only).then_some(ProductModel {
+            radiance_only: true,
+            ..*self
+        })
     }
 }
 

@@ -174,19 +174,22 @@ impl SdTree {
     /// coordinates) go to the nearest border leaf.
     #[inline]
     pub fn lookup(&self, p: Vec3) -> u32 {
-        let mut x = (p - self.min) / self.side;
-        x = Vec3::new(unit(x.x), unit(x.y), unit(x.z));
+        let x = (p - self.min) / self.side;
+        let mut c = [unit(x.x), unit(x.y), unit(x.z)];
+        // Unrolled x → y → z: a runtime axis index would send every level
+        // through memory (store-forwarding on the critical path).
         let mut node = self.nodes[0];
-        let mut depth = 0usize;
-        while node.leaf == NOT_A_LEAF {
-            let axis = depth % 3;
-            let c = x[axis] * 2.0;
-            let right = c >= 1.0;
-            x[axis] = if right { c - 1.0 } else { c };
-            node = self.nodes[node.first_child as usize + right as usize];
-            depth += 1;
+        loop {
+            for axis in &mut c {
+                if node.leaf != NOT_A_LEAF {
+                    return node.leaf;
+                }
+                let t = *axis * 2.0;
+                let right = t >= 1.0;
+                *axis = if right { t - 1.0 } else { t };
+                node = self.nodes[node.first_child as usize + right as usize];
+            }
         }
-        node.leaf
     }
 
     /// Split threshold after iteration k: c·√(2^k).

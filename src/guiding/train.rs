@@ -49,6 +49,9 @@ pub struct GuidingStats {
     pub adam_rejected: u64,
     /// Non-empty when guiding was dropped because it did not pay.
     pub fallback: String,
+    /// The measured comparison of the model's child weights with its
+    /// cheaper alternative (product vs radiance weights), when one ran.
+    pub weights_check: String,
 }
 
 pub struct GuidedOutput {
@@ -197,6 +200,70 @@ fn guiding_does_not_pay(
     })
 }
 
+/// Efficiency 1 / (variance per sample × seconds per sample) of `film`
+/// rendered in `seconds`, its variance measured about `mu`.
+fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
+    let spp = film.spp.max(1) as f64;
+    1.0 / (iteration_variance(film, mu).0 * spp * (seconds / spp))
+}
+
+/// Passes of the comparison iteration alternate between the model's child
+/// weights (index 0) and the cheaper ones (index 1), each into its own film
+/// with its own render time (recording excluded: it costs both the same).
+struct WeightsTrial {
+    films: [Film; 2],
+    seconds: [f64; 2],
+}
+
+/// Passes of the weights trial, half for each side (the fallback-check
+/// iteration's length).
+const TRIAL_PASSES: u32 = 1 << FALLBACK_CHECK_ITERATION;
+
+impl WeightsTrial {
+    fn passes(&self) -> u32 {
+        self.films[0].spp + self.films[1].spp
+    }
+
+    /// Whether the cheaper weights measured more efficient, and the report.
+    /// Variances are taken about the pooled mean of every film so far.
+    fn decide<M: WeightModel>(
+        &self,
+        done: &[Film],
+        model: &M,
+        cheaper: Option<&M>,
+    ) -> (bool, String) {
+        let mut all: Vec<&Film> = done.iter().collect();
+        all.extend(&self.films);
+        let mu = pooled_mean(&all);
+        let eff = [0, 1].map(|i| efficiency(&self.films[i], self.seconds[i], &mu));
+        let cheaper_wins = eff[1] > eff[0];
+        let note = format!(
+            "{} weights {} (efficiency {:.3e}, {} weights {:.3e}, measured on {} + {} spp)",
+            model.name(),
+            if cheaper_wins {
+                "do not pay here: the rest of the run uses the cheaper"
+            } else {
+                "pay here; kept over the cheaper"
+            },
+            eff[0],
+            cheaper.map_or("", |c| c.name()),
+            eff[1],
+            self.films[0].spp,
+            self.films[1].spp,
+        );
+        (cheaper_wins, note)
+    }
+
+    /// The chosen side's film, its render seconds and both sides' render
+    /// seconds.
+    fn into_chosen(self, cheaper: bool) -> (Film, f64, f64) {
+        let i = cheaper as usize;
+        let both = self.seconds[0] + self.seconds[1];
+        let [a, b] = self.films;
+        (if cheaper { b } else { a }, self.seconds[i], both)
+    }
+}
+
 /// Renders with an SD-tree guide whose child weights come from `model`.
 pub fn render_guided<M: WeightModel>(
     scene: &Scene,
@@ -225,6 +292,16 @@ pub fn render_guided<M: WeightModel>(
     let mut pass = 0u64;
     // Set when the training iterations show that guiding does not pay.
     let mut fallback = String::new();
+    // The cheaper child weights, when the plan may fall back to them; the
+    // comparison runs in the fallback-check iteration.
+    let cheaper = if opts.use_plan && opts.bsdf_fraction.is_none() {
+        model.cheaper()
+    } else {
+        None
+    };
+    let mut use_cheaper = false;
+    let mut weights_check = String::new();
+    let mut trial: Option<WeightsTrial> = None;
     let total_spp =
         |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
 
@@ -255,6 +332,21 @@ pub fn render_guided<M: WeightModel>(
             None
         };
         let mut film = Film::new(w, h);
+        // The weights trial runs once: in the fallback-check iteration, or
+        // at the start of the final one when training ended before it.
+        if cheaper.is_some()
+            && weights_check.is_empty()
+            && trial.is_none()
+            && (!training || iteration == FALLBACK_CHECK_ITERATION)
+        {
+            trial = Some(WeightsTrial {
+                films: [Film::new(w, h), Film::new(w, h)],
+                seconds: [0.0; 2],
+            });
+        }
+        // The share of this iteration's film that the unguided check should
+        // judge: the chosen weights' half when a trial ran.
+        let mut chosen_share: Option<(Film, f64, f64)> = None;
         loop {
             match target {
                 Budget::Spp(n) if film.spp >= n => break,
@@ -262,13 +354,19 @@ pub fn render_guided<M: WeightModel>(
                 _ => {}
             }
             if fallback.is_empty() {
+                let alternate = trial.is_some() && pass % 2 == 1;
+                let active = match &cheaper {
+                    Some(c) if use_cheaper || alternate => c,
+                    _ => model,
+                };
                 let guide = SdGuide {
                     tree: &tree,
-                    model,
+                    model: active,
                     learning: training,
                     pass,
                     fixed_alpha: opts.bsdf_fraction,
                 };
+                let pass_start = clock.seconds();
                 let out = render_pass(
                     scene,
                     &guide,
@@ -277,7 +375,19 @@ pub fn render_guided<M: WeightModel>(
                     pass,
                     pixel_estimates.as_deref(),
                 );
+                if let Some(t) = trial.as_mut() {
+                    let i = alternate as usize;
+                    t.films[i].merge(&out.film);
+                    t.seconds[i] += clock.seconds() - pass_start;
+                }
                 film.merge(&out.film);
+                if trial.as_ref().is_some_and(|t| t.passes() >= TRIAL_PASSES) {
+                    let t = trial.take().expect("checked");
+                    let (cheaper_wins, note) = t.decide(&films, model, cheaper.as_ref());
+                    use_cheaper = cheaper_wins;
+                    weights_check = note;
+                    chosen_share = Some(t.into_chosen(cheaper_wins));
+                }
                 counters.add(&out.counters);
                 if training {
                     records.merge(&record_pass(&mut tree, &out.recorders));
@@ -336,11 +446,17 @@ pub fn render_guided<M: WeightModel>(
                 mean_variance,
             },
         );
+        // The chosen half is charged its render time and half of the
+        // iteration's other costs (recording, tree refinement).
+        let checked: (&Film, f64) = match &chosen_share {
+            Some((f, own, both)) => (f, own + (seconds - both).max(0.0) / 2.0),
+            None => (&film, seconds),
+        };
         if opts.use_plan && training && iteration >= FALLBACK_CHECK_ITERATION && fallback.is_empty()
         {
             let mut all: Vec<&Film> = films.iter().collect();
-            all.push(&film);
-            if let Some(reason) = guiding_does_not_pay(&all, &summaries, seconds) {
+            all.push(checked.0);
+            if let Some(reason) = guiding_does_not_pay(&all, &summaries, checked.1) {
                 fallback = reason;
             }
         }
@@ -385,6 +501,7 @@ pub fn render_guided<M: WeightModel>(
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
         fallback,
+        weights_check,
     };
     GuidedOutput {
         image,

@@ -73,6 +73,13 @@ pub struct LtcOptions {
     /// falls below this (radians in cosine space) gets density × solid angle
     /// instead of an f32 edge sum (measured in `tests/ltc_deep_switch.rs`).
     pub deep_cell_size: f32,
+    /// Diffuse children of nodes shallower than this that straddle the
+    /// horizon are clipped exactly; deeper ones (and all of them when this
+    /// is ≤ 1, level 1 excepted) use the sphere approximation of the
+    /// precomputed form factor. Exact clipping is the accurate default of
+    /// the API; a guider may trade it for speed, since an approximate
+    /// product costs variance, never bias.
+    pub exact_crossing_depth: u32,
 }
 
 /// Children up to this depth are clipped exactly (in f32 by the fast
@@ -125,6 +132,7 @@ impl Default for LtcOptions {
             rough_as_diffuse_above: 0.5,
             grazing_theta_deg: 85.0,
             deep_cell_size: DEFAULT_DEEP_CELL_SIZE,
+            exact_crossing_depth: EXACT_CROSSING_DEPTH,
         }
     }
 }
@@ -351,6 +359,7 @@ pub struct ShadingLtc {
     pub glossy_count: usize,
     pub cos_theta_o: f32,
     grazing_cos: f32,
+    exact_crossing_depth: u32,
     total: f32,
 }
 
@@ -457,6 +466,7 @@ impl ShadingLtc {
             glossy_count,
             cos_theta_o,
             grazing_cos: opts.grazing_theta_deg.to_radians().cos(),
+            exact_crossing_depth: opts.exact_crossing_depth,
             total: guard(total),
         }
     }
@@ -527,7 +537,7 @@ impl ShadingLtc {
                 || exact_children_f32(&self.diffuse_rows, self.diffuse_orientation, cell),
             );
         }
-        if cell.depth < EXACT_CROSSING_DEPTH {
+        if cell.depth < self.exact_crossing_depth {
             // Large cells: classify by the polygon, clip straddlers exactly.
             let mut buf = [Vec3::ZERO; MAX_CACHED_POLYGON];
             let scale = self.diffuse_orientation * (0.5 / PI);
