@@ -6,7 +6,7 @@ use crate::guiding::guide::RadianceModel;
 use crate::guiding::product::ProductModel;
 use crate::guiding::sdtree::SdTree;
 use crate::guiding::train::{GuidingStats, render_guided};
-use crate::ltc::{LtcOptions, LtcTable, ProductKernel};
+use crate::ltc::{LtcTable, ProductKernel};
 use std::sync::OnceLock;
 
 /// The committed LTC table, decoded once.
@@ -312,17 +312,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                     let model = ProductModel {
                         table: default_ltc_table()?,
                         kernel: opts.product_kernel,
-                        options: LtcOptions {
-                            deep_cell_size: std::env::var("LTCGUIDE_DEEP")
-                                .ok()
-                                .and_then(|v| v.parse().ok())
-                                .unwrap_or(LtcOptions::default().deep_cell_size),
-                            exact_crossing_depth: std::env::var("LTCGUIDE_XDEPTH")
-                                .ok()
-                                .and_then(|v| v.parse().ok())
-                                .unwrap_or(LtcOptions::default().exact_crossing_depth),
-                            ..LtcOptions::default()
-                        },
+                        options: crate::guiding::product::guiding_ltc_options(),
                         radiance_only: false,
                     };
                     guided(render_guided(

@@ -27,6 +27,21 @@ pub struct ProductModel<'t> {
     pub radiance_only: bool,
 }
 
+/// The LTC options product guiding runs with: the API's defaults, except
+/// that straddling diffuse cells below level 1 take the sphere
+/// approximation of their precomputed form factor instead of exact
+/// clipping, as in the paper's optimised variant. An approximate product
+/// costs variance, never bias, and here it costs none measurably: at 16
+/// spp (2 threads, CPU seconds of the whole run, per-sample variance of the
+/// final iteration) cornell-box went from 53.8 s to 33.9 s with variance
+/// 0.0115 both ways, staircase from 88.0 s to 81.1 s with 0.1254 → 0.1227.
+pub fn guiding_ltc_options() -> LtcOptions {
+    LtcOptions {
+        exact_crossing_depth: 1,
+        ..LtcOptions::default()
+    }
+}
+
 /// Depths below this get one memo slot each (deeper nodes are recomputed).
 const MEMO_DEPTHS: usize = 24;
 
@@ -200,6 +215,48 @@ mod tests {
             kernel: ProductKernel::Simd,
             memo: ChildMemo::default(),
         }
+    }
+
+    /// The guider's options change only children straddling the horizon,
+    /// by the sphere approximation's error, which is large for level-2
+    /// cells relative to the cell (a child can get a fifth of its exact
+    /// value) but small against the lobe: every diffuse child is within 3 %
+    /// of the lobe's whole integral of exact clipping (measured worst
+    /// 1.7 %), finite and non-negative, at random normals to depth 6.
+    #[test]
+    fn guiding_options_approximate_straddlers_only() {
+        let table = LtcTable::load_default().unwrap();
+        let mut rng = Rng::new(3, 9);
+        let lobes = Lobes {
+            diffuse: 1.0,
+            ggx: [GgxLobe {
+                weight: 0.0,
+                alpha: 0.1,
+            }],
+            ggx_count: 0,
+            delta: 0.0,
+            side: 1.0,
+        };
+        let mut worst = 0.0f32;
+        for _ in 0..40 {
+            let n = crate::sampling::square_to_uniform_sphere(rng.next_2d());
+            let frame = Frame::from_normal(n);
+            let exact = ShadingLtc::new(&lobes, &frame, Vec3::Z, &table, &LtcOptions::default());
+            let fast = ShadingLtc::new(&lobes, &frame, Vec3::Z, &table, &guiding_ltc_options());
+            let mut cell = Cell::ROOT;
+            for _ in 0..6 {
+                let a = exact.child_integrals(cell, ProductKernel::Simd);
+                let b = fast.child_integrals(cell, ProductKernel::Simd);
+                for k in 0..4 {
+                    assert!(b[k].is_finite() && b[k] >= 0.0, "{b:?}");
+                    worst = worst.max((a[k] - b[k]).abs() / exact.total());
+                }
+                cell = cell.child((rng.next_f32() * 4.0) as usize % 4);
+            }
+        }
+        eprintln!("worst child error {worst:.4} of the lobe's integral");
+        assert!(worst < 0.03, "{worst}");
+        assert!(worst > 0.0, "the guiding options changed nothing");
     }
 
     /// A full tree to node depth 3 with random sums (some zero), and a chain
