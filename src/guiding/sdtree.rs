@@ -78,6 +78,8 @@ struct SpatialNode {
 }
 
 const NOT_A_LEAF: u32 = u32::MAX;
+/// Tag of an octree entry that is a leaf id.
+const OCTANT_LEAF: u32 = 1 << 31;
 
 #[derive(Clone, Debug)]
 pub struct SdLeaf {
@@ -109,6 +111,12 @@ pub struct SdTree {
     min: Vec3,
     side: f32,
     nodes: Vec<SpatialNode>,
+    /// The same tree three levels (x, y, z) per node, for lookups: each
+    /// entry is a leaf id tagged with `OCTANT_LEAF` or the index of the
+    /// next octree node. A lookup then waits on a third as many dependent
+    /// loads; rebuilt whenever `nodes` changes.
+    octree: Vec<[u32; 8]>,
+    octree_root: u32,
     leaves: Vec<SdLeaf>,
     pub config: SdTreeConfig,
 }
@@ -134,6 +142,8 @@ impl SdTree {
         SdTree {
             min,
             side,
+            octree: Vec::new(),
+            octree_root: OCTANT_LEAF,
             nodes: vec![SpatialNode {
                 first_child: 0,
                 leaf: 0,
@@ -176,8 +186,24 @@ impl SdTree {
     pub fn lookup(&self, p: Vec3) -> u32 {
         let x = (p - self.min) / self.side;
         let mut c = [unit(x.x), unit(x.y), unit(x.z)];
-        // Unrolled x → y → z: a runtime axis index would send every level
-        // through memory (store-forwarding on the critical path).
+        let mut entry = self.octree_root;
+        while entry & OCTANT_LEAF == 0 {
+            let mut octant = 0;
+            for (bit, axis) in c.iter_mut().enumerate() {
+                let t = *axis * 2.0;
+                let right = t >= 1.0;
+                *axis = if right { t - 1.0 } else { t };
+                octant |= (right as usize) << bit;
+            }
+            entry = self.octree[entry as usize][octant];
+        }
+        entry & !OCTANT_LEAF
+    }
+
+    /// [`Self::lookup`] on the binary tree itself (the octree's reference).
+    pub fn lookup_binary(&self, p: Vec3) -> u32 {
+        let x = (p - self.min) / self.side;
+        let mut c = [unit(x.x), unit(x.y), unit(x.z)];
         let mut node = self.nodes[0];
         loop {
             for axis in &mut c {
@@ -190,6 +216,33 @@ impl SdTree {
                 node = self.nodes[node.first_child as usize + right as usize];
             }
         }
+    }
+
+    /// Rebuilds the lookup octree from the binary nodes. Octree nodes sit at
+    /// binary depths 0, 3, 6, …, where the next three splits are x, y, z.
+    fn rebuild_octree(&mut self) {
+        fn entry(nodes: &[SpatialNode], octree: &mut Vec<[u32; 8]>, n: usize) -> u32 {
+            if nodes[n].leaf != NOT_A_LEAF {
+                return nodes[n].leaf | OCTANT_LEAF;
+            }
+            let index = octree.len();
+            octree.push([0; 8]);
+            for octant in 0..8 {
+                // Down at most three levels, stopping at a leaf.
+                let mut m = n;
+                for bit in 0..3 {
+                    if nodes[m].leaf != NOT_A_LEAF {
+                        break;
+                    }
+                    m = nodes[m].first_child as usize + (octant >> bit & 1);
+                }
+                octree[index][octant] = entry(nodes, octree, m);
+            }
+            index as u32
+        }
+        let mut octree = Vec::with_capacity(self.nodes.len() / 4 + 1);
+        self.octree_root = entry(&self.nodes, &mut octree, 0);
+        self.octree = octree;
     }
 
     /// Split threshold after iteration k: c·√(2^k).
@@ -245,6 +298,7 @@ impl SdTree {
             stack.push(first as usize);
             stack.push(first as usize + 1);
         }
+        self.rebuild_octree();
     }
 
     /// Rebuilds every leaf's sampling tree from its recording tree.
@@ -270,6 +324,7 @@ impl SdTree {
             spatial_nodes: self.nodes.len(),
             bytes: std::mem::size_of::<Self>()
                 + self.nodes.capacity() * std::mem::size_of::<SpatialNode>()
+                + self.octree.capacity() * std::mem::size_of::<[u32; 8]>()
                 + self.leaves.capacity() * std::mem::size_of::<SdLeaf>(),
             ..Default::default()
         };
@@ -304,6 +359,46 @@ mod tests {
         check::<SdTree>();
         assert_eq!(std::mem::size_of::<SpatialNode>(), 8);
         eprintln!("SdLeaf: {} bytes", std::mem::size_of::<SdLeaf>());
+    }
+
+    /// The octree lookup finds the binary tree's leaf everywhere, on an
+    /// unbalanced tree whose leaves end at every depth modulo 3.
+    #[test]
+    fn octree_lookup_matches_the_binary_tree() {
+        let mut t = SdTree::new(
+            Vec3::splat(-1.0),
+            Vec3::new(3.0, 1.0, 2.0),
+            SdTreeConfig::default(),
+        );
+        let mut rng = crate::sampling::Rng::new(11, 4);
+        for iteration in 0..6 {
+            t.config.split_threshold = 40.0;
+            for _ in 0..3000 {
+                // Clustered points: the tree refines unevenly.
+                let u = rng.next_f32();
+                let p = Vec3::new(u * u * 4.0 - 1.0, rng.next_f32() - 0.5, u * 3.0 - 1.0);
+                let id = t.lookup_binary(p) as usize;
+                t.leaves[id]
+                    .recording
+                    .record(glam::Vec2::splat(0.5), 1.0)
+                    .unwrap();
+            }
+            t.refine_spatial(iteration);
+        }
+        let depths: std::collections::HashSet<u32> = t.leaves.iter().map(|l| l.depth % 3).collect();
+        assert_eq!(depths.len(), 3, "leaves must end at every depth mod 3");
+        for _ in 0..100_000 {
+            let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 6.0 - 2.5;
+            assert_eq!(t.lookup(p), t.lookup_binary(p), "{p}");
+        }
+        for p in [
+            Vec3::splat(f32::NAN),
+            Vec3::splat(f32::INFINITY),
+            Vec3::splat(-1e30),
+        ] {
+            assert_eq!(t.lookup(p), t.lookup_binary(p));
+        }
+        assert!(t.leaves.len() > 50, "{}", t.leaves.len());
     }
 
     #[test]
