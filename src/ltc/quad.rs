@@ -43,6 +43,32 @@ pub fn node_grid(cell: Cell) -> NodeGrid {
     }
 }
 
+/// The map split along the grid's structure, A·(r·cos φ, r·sin φ, z) =
+/// r·P(φ) + Q(z): `p[vi]` = A·(cos φ, sin φ, 0) per azimuth and `q[zi]` =
+/// A·(0, 0, z) per height. Each corner is then one fused r·P + Q per
+/// coordinate, and the wide kernel forms P and Q while √(1 − z²) is still
+/// in flight, so the map no longer waits for the square root.
+#[inline(always)]
+pub fn grid_columns(rows: &[[f32; 3]; 3], gr: &NodeGrid) -> ([[f32; 3]; 3], [[f32; 3]; 3]) {
+    let p = std::array::from_fn(|vi| {
+        std::array::from_fn(|i| rows[i][1].mul_add(gr.sin[vi], rows[i][0] * gr.cos[vi]))
+    });
+    let q = std::array::from_fn(|zi| std::array::from_fn(|i| rows[i][2] * gr.z[zi]));
+    (p, q)
+}
+
+/// The corner r·P + Q (see [`grid_columns`]), normalised.
+#[inline(always)]
+pub fn unit_grid_vertex(r: f32, p: &[f32; 3], q: &[f32; 3]) -> Vec3 {
+    let t = Vec3::new(
+        r.mul_add(p[0], q[0]),
+        r.mul_add(p[1], q[1]),
+        r.mul_add(p[2], q[2]),
+    );
+    let n2 = t.z.mul_add(t.z, t.y.mul_add(t.y, t.x * t.x));
+    t * rsqrt(n2.max(RSQRT_FLOOR))
+}
+
 /// A world direction mapped by `rows` and normalised.
 #[inline(always)]
 pub fn unit_cosine_vertex(rows: &[[f32; 3]; 3], w: Vec3) -> Vec3 {
@@ -70,13 +96,10 @@ pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
 /// sphere approximation then needs all of F).
 pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
     let gr = node_grid(cell);
-    let mut p = [[Vec3::ZERO; 3]; 3];
-    for (zi, row) in p.iter_mut().enumerate() {
-        for (vi, q) in row.iter_mut().enumerate() {
-            let w = Vec3::new(gr.r[zi] * gr.cos[vi], gr.r[zi] * gr.sin[vi], gr.z[zi]);
-            *q = unit_cosine_vertex(&g.rows, w);
-        }
-    }
+    let (pc, qz) = grid_columns(&g.rows, &gr);
+    let p: [[Vec3; 3]; 3] = std::array::from_fn(|zi| {
+        std::array::from_fn(|vi| unit_grid_vertex(gr.r[zi], &pc[vi], &qz[zi]))
+    });
     // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
     let par = |zi: usize, vi: usize| unit_edge(p[zi][vi], p[zi][vi + 1]);
     let mer = |vi: usize, zi: usize| unit_edge(p[zi][vi], p[zi + 1][vi]);

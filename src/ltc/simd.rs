@@ -150,11 +150,29 @@ pub fn heights_and_radii(u: f32, h: f32, i: f32x16) -> (f32x16, f32x16) {
 /// [`super::quad::unit_cosine_vertex`].
 #[inline(always)]
 pub fn unit_vertices(rows: &[[f32; 3]; 3], x: f32x16, y: f32x16, z: f32x16) -> [f32x16; 3] {
+    normalise(transform(rows, x, y, z))
+}
+
+/// t/|t| per lane, with the normalisation of
+/// [`super::quad::unit_cosine_vertex`].
+#[inline(always)]
+pub fn normalise(t: [f32x16; 3]) -> [f32x16; 3] {
     use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
-    let t = transform(rows, x, y, z);
     let n2 = t[2].mul_add(t[2], t[1].mul_add(t[1], t[0] * t[0]));
     let inv = rsqrt_x16(n2.fast_max(splat(RSQRT_FLOOR)));
     [t[0] * inv, t[1] * inv, t[2] * inv]
+}
+
+/// (b0 + b2) + (b1 + b3) of the four 128-bit blocks b_j of `v`, lane by
+/// lane: two extract-and-add steps (the halves, then the quarters).
+#[inline(always)]
+pub fn block_sums(v: f32x16) -> wide::f32x4 {
+    use wide::{f32x4, f32x8};
+    // SAFETY: f32x16 is 64 bytes of 16 f32 (repr C); [f32x8; 2] and
+    // [f32x4; 2] are the same bytes split in halves, lanes in order.
+    let [lo, hi]: [f32x8; 2] = unsafe { std::mem::transmute(v) };
+    let [lo, hi]: [f32x4; 2] = unsafe { std::mem::transmute(lo + hi) };
+    lo + hi
 }
 
 /// a×b and θ/sin θ of edges between unit vectors: the operations of
