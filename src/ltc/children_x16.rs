@@ -118,7 +118,7 @@ pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         -1., -1., 1., 1., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0.,
     ];
     let h = 1.0 / (1u64 << (cell.depth + 2)) as f32;
-    let (z, r) = heights_and_radii((4 * cell.ix) as f32, h, f32x16::from(HEIGHT));
+    let (z, r) = heights_and_radii(4 * cell.ix, h, f32x16::from(HEIGHT));
     let (s, c) = rotated_sincos(
         dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1),
         dyadic_sincos(1, cell.depth + 2),

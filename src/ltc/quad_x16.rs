@@ -16,7 +16,8 @@
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::dyadic_sincos;
 use super::simd::{
-    block_sums, heights_and_radii, normalise, permute, rotated_sincos, splat, unit_edges,
+    block_sums, cross_xy, heights_and_radii, normalise, permute, rotated_sincos, splat,
+    unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -90,7 +91,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     // The scalar kernel's `node_grid`, lane by lane.
     let d = cell.depth + 1;
     let h = 1.0 / (1u64 << d) as f32;
-    let (z, r) = heights_and_radii((2 * cell.ix) as f32, h, f32x16::from(GRID_HEIGHT));
+    let (z, r) = heights_and_radii(2 * cell.ix, h, f32x16::from(GRID_HEIGHT));
     let (s, c) = rotated_sincos(
         dyadic_sincos(2 * cell.iy as u64 + 1, d),
         dyadic_sincos(1, d),
@@ -105,7 +106,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let below = u[2].simd_le(splat(0.0)).to_bitmask();
     let a = u.map(|v| permute(v, &PERM_A));
     let b = u.map(|v| permute(v, &PERM_B));
-    let ([cx, cy, cz], k) = unit_edges(a, b);
+    let (cz, k) = unit_edges_z(&a, &b);
     let scale = g.orientation * (0.5 / std::f32::consts::PI);
     if above & ALL_CORNERS == ALL_CORNERS {
         // Every child above the horizon: F_z is the integral.
@@ -115,6 +116,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let sides = CHILD_CORNERS.map(|m| HorizonSide::of_masks(above, below, m));
     let fz = block_sums(cz * k).to_array();
     let (fx, fy) = if sides.contains(&HorizonSide::Crossing) {
+        let (cx, cy) = cross_xy(&a, &b);
         (block_sums(cx * k).to_array(), block_sums(cy * k).to_array())
     } else {
         ([0.0; 4], [0.0; 4])
