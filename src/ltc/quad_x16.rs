@@ -103,7 +103,6 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let t = [0, 1, 2].map(|i| r.mul_add(col(i), splat(rw[i][2]) * z));
     let u = normalise(t);
     let above = u[2].simd_ge(splat(0.0)).to_bitmask();
-    let below = u[2].simd_le(splat(0.0)).to_bitmask();
     let a = u.map(|v| permute(v, &PERM_A));
     let b = u.map(|v| permute(v, &PERM_B));
     let (cz, k) = unit_edges_z(&a, &b);
@@ -113,10 +112,27 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
         return f.to_array();
     }
+    let below = u[2].simd_le(splat(0.0)).to_bitmask();
+    below_or_across(g, cell, [above, below], &a, &b, cz * k, k)
+}
+
+/// The children when some are not wholly above the horizon: out of line,
+/// so that the common case keeps its registers and a short prologue.
+#[cold]
+#[inline(never)]
+fn below_or_across(
+    g: &GlossyLtc,
+    cell: Cell,
+    [above, below]: [u32; 2],
+    a: &[f32x16; 3],
+    b: &[f32x16; 3],
+    ez: f32x16,
+    k: f32x16,
+) -> [f32; 4] {
     let sides = CHILD_CORNERS.map(|m| HorizonSide::of_masks(above, below, m));
-    let fz = block_sums(cz * k).to_array();
+    let fz = block_sums(ez).to_array();
     let (fx, fy) = if sides.contains(&HorizonSide::Crossing) {
-        let (cx, cy) = cross_xy(&a, &b);
+        let (cx, cy) = cross_xy(a, b);
         (block_sums(cx * k).to_array(), block_sums(cy * k).to_array())
     } else {
         ([0.0; 4], [0.0; 4])

@@ -146,9 +146,9 @@ pub fn heights_and_radii(u: u32, h: f32, i: f32x16) -> (f32x16, f32x16) {
     debug_assert!(u < 1 << 24);
     let u = wide::i32x16::splat(u as i32).round_float();
     let z = ((u + i) * splat(h)).mul_add(splat(2.0), splat(-1.0));
-    let r = ((splat(1.0) - z) * (splat(1.0) + z))
-        .fast_max(splat(0.0))
-        .sqrt();
+    // z is an exact dyadic in [−1, 1] for any cell, so 1 ∓ z are exact
+    // and their product is ≥ 0: the scalar `max(0)` is a no-op here.
+    let r = ((splat(1.0) - z) * (splat(1.0) + z)).sqrt();
     (z, r)
 }
 
