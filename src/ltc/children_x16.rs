@@ -1,13 +1,16 @@
 //! The 16-wide child kernel: the 4 children × 4 edges of a node in one
-//! f32x16, as in the paper (lane 4k + e is edge e of child k).
+//! f32x16, as in the paper (edge e of child k in lane 4·b(e) + k, b a fixed
+//! block order, see [`super::quad_x16`]).
 //!
 //! Every lane builds its two edge endpoints from the node's 3×3 corner grid,
 //! maps them into the lobe's cosine space and evaluates θ·(a×b)/|a×b| with
 //! the same operations, in the same order, as the scalar kernel
-//! ([`super::polygon::edge_vector`]); the per-child sums use the scalar
+//! ([`super::quad::unit_edge`]); the per-child sums use the scalar
 //! kernel's order, (e0 + e1) + (e2 + e3), so both agree lane for lane.
-//! Coarse nodes whose children have subdivided parallels batch their edges
-//! 16 at a time; deep nodes use the shared density × solid-angle path.
+//! The root's children are 4 clipped triangles ([`super::level1`]); coarse
+//! nodes whose children have subdivided parallels batch their edges 16 at a
+//! time ([`super::coarse_x16`]); deep nodes use the shared density × solid
+//! angle path.
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, child_centres};
 use super::coarse_x16::coarse_children_x16;
