@@ -199,11 +199,9 @@ pub fn horizon_point(a: Vec3, b: Vec3) -> Vec3 {
 }
 
 /// Pairwise sum of the at most 16 values `t[r]` (zero padded): a fixed
-/// order both kernels share (chords per child are 1, 2, 4, 8 or 16):
-/// lanes l and l + w for w = 8, 4, 2, 1, which the wide kernel's
-/// [`super::coarse_x16::tree_sum_x16`] performs as halvings of one vector.
+/// order both kernels share (chords per child are 1, 2, 4, 8 or 16).
 #[inline(always)]
-pub fn tree_sum(t: &[f32; EDGE_ROOM], r: &Range<usize>) -> f32 {
+fn tree_sum(t: &[f32; EDGE_ROOM], r: &Range<usize>) -> f32 {
     let w: &[f32; 16] = t[r.start..r.start + 16].try_into().unwrap();
     let len = r.len();
     let mut v: [f32; 16] = std::array::from_fn(|l| if l < len { w[l] } else { 0.0 });
@@ -217,36 +215,26 @@ pub fn tree_sum(t: &[f32; EDGE_ROOM], r: &Range<usize>) -> f32 {
     v[0]
 }
 
-/// Signed sum of a child's edge terms `t` in its winding; `sum` sums a
-/// range of chords ([`tree_sum`] or its wide twin, the same order).
-#[inline(always)]
-fn child_sum<S>(c: &ChildEdges, t: &[f32; EDGE_ROOM], sum: &S) -> f32
-where
-    S: Fn(&[f32; EDGE_ROOM], &Range<usize>) -> f32,
-{
-    (sum(t, &c.lower) + t[c.right]) - (sum(t, &c.upper) + t[c.left])
+/// Signed sum of a child's edge terms `t` in its winding.
+#[inline]
+fn child_sum(c: &ChildEdges, t: &[f32; EDGE_ROOM]) -> f32 {
+    (tree_sum(t, &c.lower) + t[c.right]) - (tree_sum(t, &c.upper) + t[c.left])
 }
 
 /// The 4 child integrals from the edges: exact F_z above the horizon, 0
-/// below, exact clipping across it. `sum` sums a range of chords (scalar
-/// or wide, the same order), inlined into each kernel.
-#[inline(always)]
-pub fn finish_coarse<S>(g: &GlossyLtc, node: &CoarseNode, e: &CoarseEdges, sum: S) -> [f32; 4]
-where
-    S: Fn(&[f32; EDGE_ROOM], &Range<usize>) -> f32,
-{
+/// below, exact clipping across it.
+pub fn finish_coarse(g: &GlossyLtc, node: &CoarseNode, e: &CoarseEdges) -> [f32; 4] {
     let scale = g.orientation * (0.5 / std::f32::consts::PI);
-    let mut out = [0.0f32; 4];
-    for (o, c) in out.iter_mut().zip(&node.children) {
-        *o = if e.above & c.mask == c.mask {
-            (child_sum(c, &e.ez, &sum) * scale).max(0.0)
+    std::array::from_fn(|k| {
+        let c = &node.children[k];
+        if e.above & c.mask == c.mask {
+            (child_sum(c, &e.ez) * scale).max(0.0)
         } else if e.below & c.mask == c.mask {
             0.0
         } else {
-            ((child_sum(c, &e.clip, &sum) + horizon_arcs(c, e)) * scale).max(0.0)
-        };
-    }
-    out
+            ((child_sum(c, &e.clip) + horizon_arcs(c, e)) * scale).max(0.0)
+        }
+    })
 }
 
 /// The horizon arcs of a clipped child: from each point where its boundary
@@ -340,5 +328,5 @@ pub fn coarse_children_scalar(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
             0.0
         };
     }
-    finish_coarse(g, node, &e, tree_sum)
+    finish_coarse(g, node, &e)
 }

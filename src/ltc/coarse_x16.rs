@@ -3,11 +3,9 @@
 //! node's edge table; both kernels then share [`super::coarse::finish_coarse`].
 
 use super::children::GlossyLtc;
-use super::coarse::{CoarseEdges, EDGE_ROOM, coarse_node, finish_coarse};
+use super::coarse::{CoarseEdges, coarse_node, finish_coarse};
 use super::simd::{horizon_points, load16, splat, unit_edges, unit_vertices};
 use crate::directional::Cell;
-use std::ops::Range;
-use wide::{f32x4, f32x8, f32x16};
 
 /// The 4 child integrals of a coarse node (depth 1..=4), 16 edges at a time.
 pub fn coarse_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
@@ -54,23 +52,5 @@ pub fn coarse_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         e.clip[j..j + 16].copy_from_slice(&clip.to_array());
         j += 16;
     }
-    finish_coarse(g, node, &e, tree_sum_x16)
-}
-
-/// [`super::coarse::tree_sum`] as halvings of one vector: the upper 8
-/// lanes onto the lower, then 4, 2, 1 — the scalar loop's additions, in
-/// its order, so both kernels agree bit for bit.
-#[inline(always)]
-pub fn tree_sum_x16(t: &[f32; EDGE_ROOM], r: &Range<usize>) -> f32 {
-    const LANE: [f32; 16] = [
-        0., 1., 2., 3., 4., 5., 6., 7., 8., 9., 10., 11., 12., 13., 14., 15.,
-    ];
-    let keep = f32x16::from(LANE).simd_lt(splat(r.len() as f32));
-    let v = keep.bitselect(load16(t, r.start), splat(0.0));
-    // SAFETY: f32x16 is 64 bytes of 16 f32 (repr C); [f32x8; 2] and
-    // [f32x4; 2] are the same bytes split in halves, lanes in order.
-    let [lo, hi]: [f32x8; 2] = unsafe { std::mem::transmute(v) };
-    let [lo, hi]: [f32x4; 2] = unsafe { std::mem::transmute(lo + hi) };
-    let q = (lo + hi).to_array();
-    (q[0] + q[2]) + (q[1] + q[3])
+    finish_coarse(g, node, &e)
 }
