@@ -33,7 +33,7 @@
 
 use super::children_x16;
 use super::coarse::coarse_children_scalar;
-use super::fast_math::{cell_solid_angle, dyadic_sincos};
+use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::form_factor;
 use super::level1::level1_children;
 use super::polygon::{
@@ -300,7 +300,7 @@ pub fn deep_centres(cell: Cell) -> ([f32; 2], [f32; 2], [f32; 2], [f32; 2]) {
     // The node's centre meridian rotated by half a child's width either
     // way, as in `quad::node_grid`.
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
-    let (ss, cs) = dyadic_sincos(1, cell.depth + 2);
+    let (ss, cs) = step_sincos(cell.depth + 2);
     (
         z,
         r,

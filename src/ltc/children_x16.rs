@@ -14,7 +14,7 @@
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, child_centres};
 use super::coarse_x16::coarse_children_x16;
-use super::fast_math::{cell_solid_angle, dyadic_sincos};
+use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::level1::level1_children_x16;
 use super::polygon::{cached_cell_polygon, is_plain_quad_depth};
 use super::quad_x16::quad_children_x16;
@@ -124,7 +124,7 @@ pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let (z, r) = heights_and_radii(4 * cell.ix, h, f32x16::from(HEIGHT));
     let (s, c) = rotated_sincos(
         dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1),
-        dyadic_sincos(1, cell.depth + 2),
+        step_sincos(cell.depth + 2),
         f32x16::from(SIDE),
     );
     let p = transform(&g.rows, r * c, r * s, z);

@@ -10,7 +10,7 @@
 //! the same operations, one lane each, so both agree bit for bit.
 
 use super::children::{GlossyLtc, HorizonSide, child_grid};
-use super::fast_math::{RSQRT_FLOOR, dyadic_sincos, rsqrt, theta_over_sin};
+use super::fast_math::{RSQRT_FLOOR, dyadic_sincos, rsqrt, step_sincos, theta_over_sin};
 use super::polygon::transform_rows;
 use crate::directional::Cell;
 use glam::Vec3;
@@ -34,7 +34,7 @@ pub fn node_grid(cell: Cell) -> NodeGrid {
     let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
     let d = cell.depth + 1;
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
-    let (ss, cs) = dyadic_sincos(1, d);
+    let (ss, cs) = step_sincos(d);
     NodeGrid {
         z,
         r,

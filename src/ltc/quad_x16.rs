@@ -14,7 +14,7 @@
 //! additions and a gather of lanes 0, 4, 8, 12.
 
 use super::children::{GlossyLtc, HorizonSide};
-use super::fast_math::dyadic_sincos;
+use super::fast_math::{dyadic_sincos, step_sincos};
 use super::simd::{
     block_sums, cross_xy, heights_and_radii, normalise, permute, rotated_sincos, splat,
     unit_edges_z,
@@ -94,7 +94,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let (z, r) = heights_and_radii(2 * cell.ix, h, f32x16::from(GRID_HEIGHT));
     let (s, c) = rotated_sincos(
         dyadic_sincos(2 * cell.iy as u64 + 1, d),
-        dyadic_sincos(1, d),
+        step_sincos(d),
         f32x16::from(GRID_SIDE),
     );
     // r·P(φ) + Q(z), as the scalar `grid_columns` and `unit_grid_vertex`.
