@@ -33,7 +33,7 @@
 
 use super::children_x16;
 use super::coarse::coarse_children_scalar;
-use super::fast_math::{cell_solid_angle, dyadic_sincos};
+use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::form_factor;
 use super::level1::level1_children;
 use super::polygon::{
@@ -142,6 +142,22 @@ static NONFINITE_GUARDED: AtomicU64 = AtomicU64::new(0);
 /// How many non-finite intermediate values the LTC code has zeroed so far.
 pub fn nonfinite_guard_count() -> u64 {
     NONFINITE_GUARDED.load(Ordering::Relaxed)
+}
+
+/// [`guard`] on the 4 children at once: one mask test instead of four
+/// branches on the guider's per-level path.
+#[inline(always)]
+fn guard4(v: [f32; 4]) -> [f32; 4] {
+    use wide::f32x4;
+    let x = f32x4::from(v);
+    let finite = x.is_finite();
+    let bad = !finite.to_bitmask() & 0xF;
+    if bad != 0 {
+        NONFINITE_GUARDED.fetch_add(bad.count_ones() as u64, Ordering::Relaxed);
+    }
+    finite
+        .bitselect(x.fast_max(f32x4::splat(0.0)), f32x4::splat(0.0))
+        .to_array()
 }
 
 #[inline]
@@ -292,7 +308,7 @@ pub fn deep_centres(cell: Cell) -> ([f32; 2], [f32; 2], [f32; 2], [f32; 2]) {
     // The node's centre meridian rotated by half a child's width either
     // way, as in `quad::node_grid`.
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
-    let (ss, cs) = dyadic_sincos(1, cell.depth + 2);
+    let (ss, cs) = step_sincos(cell.depth + 2);
     (
         z,
         r,
@@ -520,7 +536,7 @@ impl ShadingLtc {
                 out[k] += g.weight * d[k];
             }
         }
-        out.map(guard)
+        guard4(out)
     }
 
     /// Cosine-lobe integrals by exact clipping in f64.

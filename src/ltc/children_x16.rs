@@ -1,17 +1,20 @@
 //! The 16-wide child kernel: the 4 children × 4 edges of a node in one
-//! f32x16, as in the paper (lane 4k + e is edge e of child k).
+//! f32x16, as in the paper (edge e of child k in lane 4·b(e) + k, b a fixed
+//! block order, see [`super::quad_x16`]).
 //!
 //! Every lane builds its two edge endpoints from the node's 3×3 corner grid,
 //! maps them into the lobe's cosine space and evaluates θ·(a×b)/|a×b| with
 //! the same operations, in the same order, as the scalar kernel
-//! ([`super::polygon::edge_vector`]); the per-child sums use the scalar
+//! ([`super::quad::unit_edge`]); the per-child sums use the scalar
 //! kernel's order, (e0 + e1) + (e2 + e3), so both agree lane for lane.
-//! Coarse nodes whose children have subdivided parallels batch their edges
-//! 16 at a time; deep nodes use the shared density × solid-angle path.
+//! The root's children are 4 clipped triangles ([`super::level1`]); coarse
+//! nodes whose children have subdivided parallels batch their edges 16 at a
+//! time ([`super::coarse_x16`]); deep nodes use the shared density × solid
+//! angle path.
 
 use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, child_centres};
 use super::coarse_x16::coarse_children_x16;
-use super::fast_math::{cell_solid_angle, dyadic_sincos};
+use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::level1::level1_children_x16;
 use super::polygon::{cached_cell_polygon, is_plain_quad_depth};
 use super::quad_x16::quad_children_x16;
@@ -118,10 +121,10 @@ pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         -1., -1., 1., 1., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0.,
     ];
     let h = 1.0 / (1u64 << (cell.depth + 2)) as f32;
-    let (z, r) = heights_and_radii((4 * cell.ix) as f32, h, f32x16::from(HEIGHT));
+    let (z, r) = heights_and_radii(4 * cell.ix, h, f32x16::from(HEIGHT));
     let (s, c) = rotated_sincos(
         dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1),
-        dyadic_sincos(1, cell.depth + 2),
+        step_sincos(cell.depth + 2),
         f32x16::from(SIDE),
     );
     let p = transform(&g.rows, r * c, r * s, z);
@@ -172,7 +175,10 @@ pub fn diffuse_children_x16(normal: Vec3, cell: Cell) -> [f32; 4] {
     })
 }
 
-/// The 4 child integrals of a glossy lobe, 16 lanes wide.
+/// The 4 child integrals of a glossy lobe, 16 lanes wide. Inlined, like
+/// the plain-quad kernel, so that the 4 results reach the caller in a
+/// register rather than through two stack round trips.
+#[inline]
 pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     let depth = cell.depth + 1;
     if depth <= EXACT_CLIP_DEPTH {

@@ -138,6 +138,8 @@ struct SinCosTables {
     hi: [[f32; 2]; 1 << TABLE_BITS],
     /// sin, cos of 2π·i/2^22.
     lo: [[f32; 2]; 1 << TABLE_BITS],
+    /// [`dyadic_sincos`]`(1, d)` for d ≤ 22, as computed by it.
+    step: [(f32, f32); DYADIC_BITS as usize + 1],
 }
 
 static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
@@ -146,10 +148,15 @@ static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
         [s as f32, c as f32]
     };
     let n = 1usize << TABLE_BITS;
-    Box::new(SinCosTables {
+    let mut t = SinCosTables {
         hi: std::array::from_fn(|i| entry(i as f64 / n as f64)),
         lo: std::array::from_fn(|i| entry(i as f64 / (n * n) as f64)),
-    })
+        step: [(0.0, 0.0); DYADIC_BITS as usize + 1],
+    };
+    for d in 0..=DYADIC_BITS {
+        t.step[d as usize] = table_sincos(&t, 1, d);
+    }
+    Box::new(t)
 });
 
 /// Forces the tables (otherwise built on first use).
@@ -164,11 +171,26 @@ pub fn dyadic_sincos(n: u64, depth: u32) -> (f32, f32) {
     if depth > DYADIC_BITS {
         return deeper_sincos(n, depth);
     }
+    table_sincos(&TABLES, n, depth)
+}
+
+#[inline(always)]
+fn table_sincos(tab: &SinCosTables, n: u64, depth: u32) -> (f32, f32) {
     let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
-    let tab = &*TABLES;
     let [sh, ch] = tab.hi[t >> TABLE_BITS];
     let [sl, cl] = tab.lo[t & ((1 << TABLE_BITS) - 1)];
     (sh.mul_add(cl, ch * sl), ch.mul_add(cl, -(sh * sl)))
+}
+
+/// sin and cos of a cell's width at `depth`, 2π/2^depth: exactly
+/// [`dyadic_sincos`]`(1, depth)`, read from a per-depth table (every grid
+/// needs it, and the angle addition sits on the kernels' critical path).
+#[inline(always)]
+pub fn step_sincos(depth: u32) -> (f32, f32) {
+    if depth > DYADIC_BITS {
+        return deeper_sincos(1, depth);
+    }
+    TABLES.step[depth as usize]
 }
 
 #[cold]
@@ -214,6 +236,7 @@ mod tests {
             }
         }
         for d in 0..30 {
+            assert_eq!(step_sincos(d), dyadic_sincos(1, d));
             let want = 4.0 * std::f64::consts::PI / (1u64 << (2 * d)) as f64;
             assert_eq!(cell_solid_angle(d), want as f32);
         }

@@ -10,7 +10,7 @@
 //! the same operations, one lane each, so both agree bit for bit.
 
 use super::children::{GlossyLtc, HorizonSide, child_grid};
-use super::fast_math::{RSQRT_FLOOR, dyadic_sincos, rsqrt, theta_over_sin};
+use super::fast_math::{RSQRT_FLOOR, dyadic_sincos, rsqrt, step_sincos, theta_over_sin};
 use super::polygon::transform_rows;
 use crate::directional::Cell;
 use glam::Vec3;
@@ -34,13 +34,39 @@ pub fn node_grid(cell: Cell) -> NodeGrid {
     let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
     let d = cell.depth + 1;
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
-    let (ss, cs) = dyadic_sincos(1, d);
+    let (ss, cs) = step_sincos(d);
     NodeGrid {
         z,
         r,
         sin: [s1.mul_add(cs, -(c1 * ss)), s1, s1.mul_add(cs, c1 * ss)],
         cos: [c1.mul_add(cs, s1 * ss), c1, c1.mul_add(cs, -(s1 * ss))],
     }
+}
+
+/// The map split along the grid's structure, A·(r·cos φ, r·sin φ, z) =
+/// r·P(φ) + Q(z): `p[vi]` = A·(cos φ, sin φ, 0) per azimuth and `q[zi]` =
+/// A·(0, 0, z) per height. Each corner is then one fused r·P + Q per
+/// coordinate, and the wide kernel forms P and Q while √(1 − z²) is still
+/// in flight, so the map no longer waits for the square root.
+#[inline(always)]
+pub fn grid_columns(rows: &[[f32; 3]; 3], gr: &NodeGrid) -> ([[f32; 3]; 3], [[f32; 3]; 3]) {
+    let p = std::array::from_fn(|vi| {
+        std::array::from_fn(|i| rows[i][1].mul_add(gr.sin[vi], rows[i][0] * gr.cos[vi]))
+    });
+    let q = std::array::from_fn(|zi| std::array::from_fn(|i| rows[i][2] * gr.z[zi]));
+    (p, q)
+}
+
+/// The corner r·P + Q (see [`grid_columns`]), normalised.
+#[inline(always)]
+pub fn unit_grid_vertex(r: f32, p: &[f32; 3], q: &[f32; 3]) -> Vec3 {
+    let t = Vec3::new(
+        r.mul_add(p[0], q[0]),
+        r.mul_add(p[1], q[1]),
+        r.mul_add(p[2], q[2]),
+    );
+    let n2 = t.z.mul_add(t.z, t.y.mul_add(t.y, t.x * t.x));
+    t * rsqrt(n2.max(RSQRT_FLOOR))
 }
 
 /// A world direction mapped by `rows` and normalised.
@@ -70,13 +96,10 @@ pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
 /// sphere approximation then needs all of F).
 pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
     let gr = node_grid(cell);
-    let mut p = [[Vec3::ZERO; 3]; 3];
-    for (zi, row) in p.iter_mut().enumerate() {
-        for (vi, q) in row.iter_mut().enumerate() {
-            let w = Vec3::new(gr.r[zi] * gr.cos[vi], gr.r[zi] * gr.sin[vi], gr.z[zi]);
-            *q = unit_cosine_vertex(&g.rows, w);
-        }
-    }
+    let (pc, qz) = grid_columns(&g.rows, &gr);
+    let p: [[Vec3; 3]; 3] = std::array::from_fn(|zi| {
+        std::array::from_fn(|vi| unit_grid_vertex(gr.r[zi], &pc[vi], &qz[zi]))
+    });
     // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
     let par = |zi: usize, vi: usize| unit_edge(p[zi][vi], p[zi][vi + 1]);
     let mer = |vi: usize, zi: usize| unit_edge(p[zi][vi], p[zi + 1][vi]);

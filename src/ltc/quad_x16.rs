@@ -1,19 +1,31 @@
 //! Plain-quad children, 16 lanes wide: the scalar [`super::quad`] kernel
 //! with the 9 grid corners in lanes 0..9 of one vector (mapped and
 //! normalised in one pass) and the 4 children × 4 edges in the 16 lanes of
-//! another (lane 4k + e is edge e of child k, as in the paper), gathered
-//! from the corners by two constant permutations. Interior edges are thus
-//! evaluated twice, once per orientation, but one vector costs the same
-//! whether it holds 12 edges or 16. Every lane performs the scalar kernel's
-//! operations in its order, and the per-child sums (e0 + e1) + (e2 + e3) are
-//! formed in registers by two lane swaps.
+//! another, gathered from the corners by two constant permutations.
+//! Interior edges are thus evaluated twice, once per orientation, but one
+//! vector costs the same whether it holds 12 edges or 16. Every lane
+//! performs the scalar kernel's operations in its order.
+//!
+//! The edge lanes are transposed with respect to the paper's 4k + e: edge e
+//! of child k sits in 128-bit block `BLOCK_OF_EDGE[e]`, lane k of it. The
+//! per-child sums (e0 + e1) + (e2 + e3) — the scalar order — are then two
+//! block additions (upper 256 bits onto lower, upper 128 onto lower) that
+//! leave the 4 children in one f32x4, instead of two lane permutations, two
+//! additions and a gather of lanes 0, 4, 8, 12.
 
 use super::children::{GlossyLtc, HorizonSide};
-use super::fast_math::dyadic_sincos;
-use super::simd::{heights_and_radii, permute, rotated_sincos, splat, unit_edges, unit_vertices};
+use super::fast_math::{dyadic_sincos, step_sincos};
+use super::simd::{
+    block_sums, cross_xy, heights_and_radii, normalise, permute, rotated_sincos, splat,
+    unit_edges_z,
+};
 use crate::directional::Cell;
 use glam::Vec3;
-use wide::f32x16;
+use wide::{f32x4, f32x16};
+
+/// The 128-bit block holding edge e of every child: blocks 0 + 2 and
+/// 1 + 3 are added first, so e0, e1 and e2, e3 must sit in those pairs.
+const BLOCK_OF_EDGE: [usize; 4] = [0, 2, 1, 3];
 
 /// Corner (height index, azimuth index) of each lane's edge start (`a`) or
 /// end (`b`), as a grid lane 3·zi + vi. Child k = (iu, iv) = (k & 1, k >> 1)
@@ -31,7 +43,7 @@ const fn edge_lanes(end: bool) -> [i32; 16] {
             } else {
                 corners[e]
             };
-            t[4 * k + e] = 3 * c.0 + c.1;
+            t[4 * BLOCK_OF_EDGE[e] + k] = 3 * c.0 + c.1;
             e += 1;
         }
         k += 1;
@@ -56,10 +68,6 @@ const fn grid_lanes(height: bool) -> [f32; 16] {
 const GRID_HEIGHT: [f32; 16] = grid_lanes(true);
 const GRID_SIDE: [f32; 16] = grid_lanes(false);
 
-/// Lane swaps that add neighbours, then pairs, within each group of 4.
-const SWAP1: [i32; 16] = [1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14];
-const SWAP2: [i32; 16] = [2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13];
-
 /// Corner lanes of each child in the grid vector.
 const fn child_corner_masks() -> [u32; 4] {
     let mut m = [0u32; 4];
@@ -77,52 +85,58 @@ const fn child_corner_masks() -> [u32; 4] {
 const CHILD_CORNERS: [u32; 4] = child_corner_masks();
 const ALL_CORNERS: u32 = 0x1FF;
 
-/// (e0 + e1) + (e2 + e3) of each group of 4 lanes, in lane 4k.
-#[inline(always)]
-fn group_sums(e: f32x16) -> f32x16 {
-    let y = e + permute(e, &SWAP1);
-    y + permute(y, &SWAP2)
-}
-
 /// The 4 child integrals of a node whose children are plain quads.
+#[inline]
 pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     // The scalar kernel's `node_grid`, lane by lane.
     let d = cell.depth + 1;
     let h = 1.0 / (1u64 << d) as f32;
-    let (z, r) = heights_and_radii((2 * cell.ix) as f32, h, f32x16::from(GRID_HEIGHT));
+    let (z, r) = heights_and_radii(2 * cell.ix, h, f32x16::from(GRID_HEIGHT));
     let (s, c) = rotated_sincos(
         dyadic_sincos(2 * cell.iy as u64 + 1, d),
-        dyadic_sincos(1, d),
+        step_sincos(d),
         f32x16::from(GRID_SIDE),
     );
-    let u = unit_vertices(&g.rows, r * c, r * s, z);
+    // r·P(φ) + Q(z), as the scalar `grid_columns` and `unit_grid_vertex`.
+    let rw = &g.rows;
+    let col = |i: usize| splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
+    let t = [0, 1, 2].map(|i| r.mul_add(col(i), splat(rw[i][2]) * z));
+    let u = normalise(t);
     let above = u[2].simd_ge(splat(0.0)).to_bitmask();
-    let below = u[2].simd_le(splat(0.0)).to_bitmask();
-    let a = [
-        permute(u[0], &PERM_A),
-        permute(u[1], &PERM_A),
-        permute(u[2], &PERM_A),
-    ];
-    let b = [
-        permute(u[0], &PERM_B),
-        permute(u[1], &PERM_B),
-        permute(u[2], &PERM_B),
-    ];
-    let ([cx, cy, cz], k) = unit_edges(a, b);
+    let a = u.map(|v| permute(v, &PERM_A));
+    let b = u.map(|v| permute(v, &PERM_B));
+    let (cz, k) = unit_edges_z(&a, &b);
     let scale = g.orientation * (0.5 / std::f32::consts::PI);
     if above & ALL_CORNERS == ALL_CORNERS {
         // Every child above the horizon: F_z is the integral.
-        let f = (group_sums(cz * k) * splat(scale)).fast_max(splat(0.0));
-        let f = f.to_array();
-        return [f[0], f[4], f[8], f[12]];
+        let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
+        return f.to_array();
     }
+    let below = u[2].simd_le(splat(0.0)).to_bitmask();
+    below_or_across(g, cell, [above, below], &a, &b, cz * k, k)
+}
+
+/// The children when some are not wholly above the horizon: out of line,
+/// so that the common case keeps its registers and a short prologue.
+#[cold]
+#[inline(never)]
+fn below_or_across(
+    g: &GlossyLtc,
+    cell: Cell,
+    [above, below]: [u32; 2],
+    a: &[f32x16; 3],
+    b: &[f32x16; 3],
+    ez: f32x16,
+    k: f32x16,
+) -> [f32; 4] {
     let sides = CHILD_CORNERS.map(|m| HorizonSide::of_masks(above, below, m));
-    let fz = group_sums(cz * k).to_array();
+    let fz = block_sums(ez).to_array();
     let (fx, fy) = if sides.contains(&HorizonSide::Crossing) {
-        (group_sums(cx * k).to_array(), group_sums(cy * k).to_array())
+        let (cx, cy) = cross_xy(a, b);
+        (block_sums(cx * k).to_array(), block_sums(cy * k).to_array())
     } else {
-        ([0.0; 16], [0.0; 16])
+        ([0.0; 4], [0.0; 4])
     };
-    let sums = std::array::from_fn(|k| Vec3::new(fx[4 * k], fy[4 * k], fz[4 * k]));
+    let sums = std::array::from_fn(|k| Vec3::new(fx[k], fy[k], fz[k]));
     g.finish_children(cell, sums, sides, None)
 }
