@@ -2,6 +2,7 @@
 //! spheres, the lat-long `envmap`, and `constant` — with next-event sampling
 //! and the matching solid-angle pdfs for multiple importance sampling.
 
+use crate::math::div3;
 use crate::math::{INV_4PI, PI, Spectrum, luminance};
 use crate::sampling::{Distribution1D, square_to_triangle, square_to_uniform_sphere};
 use crate::texture::RgbImage;
@@ -260,7 +261,7 @@ impl Light {
                 if dist <= 0.0 {
                     return None;
                 }
-                let wi = d / dist;
+                let wi = div3(d, dist);
                 if ns.dot(-wi) <= 0.0 {
                     return None; // the back side does not emit
                 }

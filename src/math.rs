@@ -23,6 +23,14 @@ pub fn is_finite3(v: Vec3) -> bool {
     v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
 }
 
+/// `v / s` in one packed division: glam's `Vec3` divides lane by lane
+/// (three dependent-issue scalar divisions); the packed one rounds each lane
+/// identically.
+#[inline(always)]
+pub fn div3(v: Vec3, s: f32) -> Vec3 {
+    Vec3::from(glam::Vec3A::from(v) / s)
+}
+
 /// An orthonormal frame; `n` is the local +z axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {

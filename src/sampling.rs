@@ -174,18 +174,17 @@ impl Distribution1D {
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         let u = u as f64;
         let n = self.func.len();
-        // first index with cdf[i+1] > u
-        let mut lo = 0usize;
-        let mut hi = n;
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if self.cdf[mid + 1] <= u {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
+        // The first bin with cdf[i+1] > u (the last bin if none): the last
+        // i < n with cdf[i] <= u, as cdf is non-decreasing with cdf[0] = 0.
+        // A branch-free search: u is random, so a branching one mispredicts
+        // half its steps (emitter triangles are sampled per shadow ray).
+        let mut i = 0usize;
+        let mut len = n.max(1);
+        while len > 1 {
+            let half = len / 2;
+            i = if self.cdf[i + half] <= u { i + half } else { i };
+            len -= half;
         }
-        let i = lo.min(n.saturating_sub(1));
         let width = self.cdf[i + 1] - self.cdf[i];
         let remapped = if width > 0.0 {
             ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON)
@@ -217,6 +216,25 @@ mod tests {
         }
         assert_eq!(counts[1] + counts[3], 0);
         assert!((counts[2] as f32 / 40000.0 - 0.75).abs() < 0.01);
+    }
+
+    #[test]
+    fn discrete_search_finds_the_first_bin_above_u() {
+        for weights in [
+            vec![1.0],
+            vec![1.0, 1.0],
+            vec![0.0, 2.0, 0.0, 0.0, 1.0, 3.0, 0.0],
+            vec![5.0, 0.0, 0.0],
+        ] {
+            let d = Distribution1D::new(&weights);
+            let n = weights.len();
+            for k in 0..=1000 {
+                let u = (k as f32 / 1000.0).min(1.0 - f32::EPSILON);
+                let expected = (0..n).find(|&i| d.cdf[i + 1] > u as f64).unwrap_or(n - 1);
+                assert_eq!(d.sample_discrete(u).0, expected, "{weights:?} u={u}");
+            }
+            assert_eq!(d.sample_discrete(f32::NAN).0, 0);
+        }
     }
 
     #[test]

@@ -243,7 +243,7 @@ impl Accel {
         if self.nodes.is_empty() {
             return;
         }
-        let inv = Vec3::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+        let inv = safe_inverse(d);
         // Slab planes as t = plane·inv − o·inv, one fused multiply-add each.
         let inv_x = f32x8::splat(inv.x);
         let inv_y = f32x8::splat(inv.y);
@@ -370,13 +370,14 @@ impl Accel {
     }
 }
 
+/// 1/d per axis, with near-zero components replaced by ±ε·10⁻⁶ so the
+/// slab distances stay finite; one packed division for the three axes.
 #[inline(always)]
-fn safe_inverse(x: f32) -> f32 {
-    if x.abs() <= f32::EPSILON * 1e-6 {
-        1.0 / (f32::EPSILON * 1e-6).copysign(x)
-    } else {
-        1.0 / x
-    }
+fn safe_inverse(d: Vec3) -> Vec3 {
+    const TINY: f32 = f32::EPSILON * 1e-6;
+    let d = Vec3A::from(d);
+    let tiny = Vec3A::splat(TINY).copysign(d);
+    Vec3::from(Vec3A::ONE / Vec3A::select(d.abs().cmple(Vec3A::splat(TINY)), tiny, d))
 }
 
 /// Decodes obvhs's quantised child boxes (plane = p + 2^(e−127)·q) into

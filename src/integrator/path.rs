@@ -180,7 +180,7 @@ pub fn trace_path<G: Guide>(
                     let (dir, tmax) = if ls.dist.is_finite() {
                         let to = it.p + ls.wi * ls.dist - origin;
                         let len = to.length();
-                        (to / len, len * (1.0 - 1e-4))
+                        (crate::math::div3(to, len), len * (1.0 - 1e-4))
                     } else {
                         (ls.wi, f32::INFINITY)
                     };
