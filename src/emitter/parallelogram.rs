@@ -38,9 +38,10 @@ impl Parallelogram {
         let d1 = pa[(ia + 1) % 3];
         let d2 = pa[(ia + 2) % 3];
         let (u, v) = (d1 - o, d2 - o);
-        // The far corner must be o + u + v up to rounding.
+        // The far corner must be o + u + v up to rounding (and the
+        // parallelogram non-degenerate: `Light::mesh` checked the area).
         let scale = u.length() + v.length();
-        if !(scale > 0.0) || (o + u + v - pb[ib]).length() > 1e-5 * scale {
+        if (o + u + v - pb[ib]).length() > 1e-5 * scale || !scale.is_finite() {
             return None;
         }
         Some(Parallelogram { o, u, v })
