@@ -299,7 +299,7 @@ pub fn trace_path<G: Guide>(
                     if !(rng.next_f32() < q) {
                         break;
                     }
-                    throughput /= q;
+                    throughput = crate::math::div3(throughput, q);
                 }
             }
         }
