@@ -48,11 +48,13 @@ pub enum Light {
     Constant(Spectrum),
 }
 
-/// A next-event sample: direction to the light, distance (∞ for lights at
-/// infinity), the emitted radiance and the solid-angle pdf including the
-/// light-selection probability.
+/// A next-event sample: the shadow ray's origin (the shading point offset
+/// off its surface), direction to the light from there and distance (∞ for
+/// lights at infinity), the emitted radiance and the solid-angle pdf (at the
+/// shading point) including the light-selection probability.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
+    pub origin: Vec3,
     pub wi: Vec3,
     pub dist: f32,
     pub radiance: Spectrum,
@@ -118,8 +120,15 @@ impl Lights {
         self.selection.discrete_pdf(light as usize)
     }
 
-    /// Samples a light and a direction towards it from `p`.
-    pub fn sample(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+    /// Samples a light and a direction towards it from `p`; `origin` maps
+    /// a direction leaving `p` to the shadow ray's offset origin.
+    pub fn sample(
+        &self,
+        p: Vec3,
+        origin: impl Fn(Vec3) -> Vec3,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
         if self.lights.is_empty() {
             return None;
         }
@@ -133,7 +142,7 @@ impl Lights {
         if select_pdf <= 0.0 {
             return None;
         }
-        let s = self.lights[index].sample(p, u)?;
+        let s = self.lights[index].sample(p, &origin, u)?;
         let pdf = s.pdf * select_pdf;
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
@@ -242,8 +251,8 @@ impl Light {
         })
     }
 
-    fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        match self {
+    fn sample(&self, p: Vec3, origin: &impl Fn(Vec3) -> Vec3, u: Vec2) -> Option<LightSample> {
+        let s = match self {
             Light::Mesh {
                 radiance,
                 triangles,
@@ -272,27 +281,34 @@ impl Light {
                 };
                 let t = &triangles[i];
                 let ng = normals[i];
-                let d = q - p;
-                let dist2 = d.length_squared();
-                let dist = dist2.sqrt();
+                // The shadow ray is aimed from its offset origin, and its
+                // direction shades: one normalisation. The pdf is measured
+                // at `p`, as `pdf_area` measures it for BSDF-sampled hits.
+                let d_p = q - p;
+                let dist2 = d_p.length_squared();
+                let o = origin(d_p);
+                let to = q - o;
+                let dist = to.length();
                 if dist <= 0.0 {
                     return None;
                 }
-                let wi = div3(d, dist);
+                let wi = div3(to, dist);
                 if ns.dot(-wi) <= 0.0 {
                     return None; // the back side does not emit
                 }
-                let cos = ng.dot(wi).abs();
-                if cos <= 0.0 {
+                // cos θ_light / dist² = |ng·d| / dist³
+                let cos_dist = ng.dot(d_p).abs();
+                if cos_dist <= 0.0 {
                     return None;
                 }
-                Some(LightSample {
+                return Some(LightSample {
+                    origin: o,
                     wi,
                     dist,
                     radiance: *radiance,
-                    pdf: dist2 / (cos * area),
+                    pdf: dist2 * dist2.sqrt() / (cos_dist * area),
                     prim: t.prim,
-                })
+                });
             }
             Light::Sphere {
                 radiance,
@@ -315,13 +331,17 @@ impl Light {
                         return None;
                     }
                     let cos = n.dot(wi).abs();
-                    return Some(LightSample {
-                        wi,
-                        dist,
-                        radiance: *radiance,
-                        pdf: dist2 / (cos * 4.0 * PI * radius * radius),
-                        prim: *prim,
-                    });
+                    return Some(aim_from_origin(
+                        LightSample {
+                            origin: p,
+                            wi,
+                            dist,
+                            radiance: *radiance,
+                            pdf: dist2 / (cos * 4.0 * PI * radius * radius),
+                            prim: *prim,
+                        },
+                        origin,
+                    ));
                 }
                 if *sign < 0.0 {
                     return None; // flipped sphere seen from outside: emits inward only
@@ -345,6 +365,7 @@ impl Light {
                     return None;
                 }
                 Some(LightSample {
+                    origin: p,
                     wi,
                     dist,
                     radiance: *radiance,
@@ -355,6 +376,7 @@ impl Light {
             Light::Env(env) => {
                 let (wi, pdf) = env.sample(u)?;
                 Some(LightSample {
+                    origin: p,
                     wi,
                     dist: f32::INFINITY,
                     radiance: env.eval(wi),
@@ -363,13 +385,32 @@ impl Light {
                 })
             }
             Light::Constant(c) => Some(LightSample {
+                origin: p,
                 wi: square_to_uniform_sphere(u),
                 dist: f32::INFINITY,
                 radiance: *c,
                 pdf: INV_4PI,
                 prim: u32::MAX,
             }),
-        }
+        };
+        s.map(|s| aim_from_origin(s, origin))
+    }
+}
+
+/// Re-aims a sample taken from `s.origin` (the shading point) from the
+/// offset shadow-ray origin, at the sampled point itself.
+fn aim_from_origin(s: LightSample, origin: &impl Fn(Vec3) -> Vec3) -> LightSample {
+    let o = origin(s.wi);
+    if !s.dist.is_finite() {
+        return LightSample { origin: o, ..s };
+    }
+    let to = s.origin + s.wi * s.dist - o;
+    let dist = to.length();
+    LightSample {
+        origin: o,
+        wi: div3(to, dist),
+        dist,
+        ..s
     }
 }
 
