@@ -5,6 +5,10 @@
 //! table built by the same decoding as the float path, and the filter does
 //! the float path's arithmetic in the same order, so lookups are
 //! bit-identical to [`super::RgbImage`]'s.
+//!
+//! Texels are stored in 4×4 tiles of one cache line each: a bilinear
+//! footprint then lies in one line 9 times in 16 (row-major storage needs
+//! two, one per row), and nearby lookups share lines in both directions.
 
 use crate::math::Spectrum;
 use glam::Vec2;
@@ -13,8 +17,11 @@ use glam::Vec2;
 pub struct Bitmap8 {
     pub width: usize,
     pub height: usize,
-    /// R | G << 8 | B << 16, row 0 at the top.
-    texels: Vec<u32>,
+    /// R | G << 8 | B << 16, in 4×4 tiles (see [`tile_index`]), row 0
+    /// at the top.
+    tiles: Vec<Tile>,
+    /// Tiles per row.
+    tiles_x: usize,
     /// Linear value of each 8-bit code.
     lut: [f32; 256],
 }
@@ -32,14 +39,18 @@ impl Bitmap8 {
         for (v, p) in lut.iter_mut().zip(codes.pixels()) {
             *v = decode(p.0[0]);
         }
-        let texels = img
-            .pixels()
-            .map(|p| p.0[0] as u32 | (p.0[1] as u32) << 8 | (p.0[2] as u32) << 16)
-            .collect();
+        let (width, height) = (img.width() as usize, img.height() as usize);
+        let tiles_x = width.div_ceil(4);
+        let mut tiles = vec![Tile([0; 16]); tiles_x * height.div_ceil(4)];
+        for (x, y, p) in img.enumerate_pixels() {
+            let (tile, i) = tile_index(tiles_x, x as usize, y as usize);
+            tiles[tile].0[i] = p.0[0] as u32 | (p.0[1] as u32) << 8 | (p.0[2] as u32) << 16;
+        }
         Bitmap8 {
-            width: img.width() as usize,
-            height: img.height() as usize,
-            texels,
+            width,
+            height,
+            tiles,
+            tiles_x,
             lut,
         }
     }
@@ -52,12 +63,13 @@ impl Bitmap8 {
 
     #[inline]
     pub fn get(&self, x: usize, y: usize) -> Spectrum {
-        self.unpack(self.texels[y * self.width + x])
+        let (tile, i) = tile_index(self.tiles_x, x, y);
+        self.unpack(self.tiles[tile].0[i])
     }
 
     /// Linear pixels in row-major order.
     pub fn pixels(&self) -> impl Iterator<Item = Spectrum> + '_ {
-        self.texels.iter().map(|&t| self.unpack(t))
+        (0..self.height).flat_map(move |y| (0..self.width).map(move |x| self.get(x, y)))
     }
 
     /// The lookup of [`super::bilinear_periodic`].
@@ -72,6 +84,17 @@ impl Bitmap8 {
         let bottom = self.get(x0, y1) * (1.0 - tx) + self.get(x1, y1) * tx;
         top * (1.0 - ty) + bottom * ty
     }
+}
+
+/// 4×4 texels, aligned to a cache line.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Tile([u32; 16]);
+
+/// (tile, index in the tile) of texel (x, y) with `tiles_x` tiles per row.
+#[inline(always)]
+fn tile_index(tiles_x: usize, x: usize, y: usize) -> (usize, usize) {
+    ((y >> 2) * tiles_x + (x >> 2), (y & 3) * 4 + (x & 3))
 }
 
 #[cfg(test)]
