@@ -64,11 +64,13 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     }
     // Both branches as selects around one division: the branch on a
     // uniformly random u would mispredict half the time.
+    // θ = q or π/2 − q with |q| ≤ π/4, so sin θ and cos θ are the
+    // quarter-range sine and cosine of q, possibly swapped.
     let near_y = o.x.abs() <= o.y.abs();
     let (num, r) = if near_y { (o.x, o.y) } else { (o.y, o.x) };
     let q = (PI / 4.0) * (num / r);
-    let theta = if near_y { PI / 2.0 - q } else { q };
-    let (s, c) = theta.sin_cos();
+    let (sq, cq) = crate::math::sin_cos_quarter(q);
+    let (s, c) = if near_y { (cq, sq) } else { (sq, cq) };
     Vec2::new(r * c, r * s)
 }
 
