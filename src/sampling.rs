@@ -62,12 +62,15 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, (PI / 4.0) * (o.y / o.x))
-    } else {
-        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
-    };
-    let (s, c) = theta.sin_cos();
+    // Both branches as selects around one division: the branch on a
+    // uniformly random u would mispredict half the time.
+    // θ = q or π/2 − q with |q| ≤ π/4, so sin θ and cos θ are the
+    // quarter-range sine and cosine of q, possibly swapped.
+    let near_y = o.x.abs() <= o.y.abs();
+    let (num, r) = if near_y { (o.x, o.y) } else { (o.y, o.x) };
+    let q = (PI / 4.0) * (num / r);
+    let (sq, cq) = crate::math::sin_cos_quarter(q);
+    let (s, c) = if near_y { (cq, sq) } else { (sq, cq) };
     Vec2::new(r * c, r * s)
 }
 
@@ -174,18 +177,17 @@ impl Distribution1D {
     pub fn sample_discrete(&self, u: f32) -> (usize, f32, f32) {
         let u = u as f64;
         let n = self.func.len();
-        // first index with cdf[i+1] > u
-        let mut lo = 0usize;
-        let mut hi = n;
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if self.cdf[mid + 1] <= u {
-                lo = mid + 1;
-            } else {
-                hi = mid;
-            }
+        // The first bin with cdf[i+1] > u (the last bin if none): the last
+        // i < n with cdf[i] <= u, as cdf is non-decreasing with cdf[0] = 0.
+        // A branch-free search: u is random, so a branching one mispredicts
+        // half its steps (emitter triangles are sampled per shadow ray).
+        let mut i = 0usize;
+        let mut len = n.max(1);
+        while len > 1 {
+            let half = len / 2;
+            i = if self.cdf[i + half] <= u { i + half } else { i };
+            len -= half;
         }
-        let i = lo.min(n.saturating_sub(1));
         let width = self.cdf[i + 1] - self.cdf[i];
         let remapped = if width > 0.0 {
             ((u - self.cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON)
@@ -217,6 +219,25 @@ mod tests {
         }
         assert_eq!(counts[1] + counts[3], 0);
         assert!((counts[2] as f32 / 40000.0 - 0.75).abs() < 0.01);
+    }
+
+    #[test]
+    fn discrete_search_finds_the_first_bin_above_u() {
+        for weights in [
+            vec![1.0],
+            vec![1.0, 1.0],
+            vec![0.0, 2.0, 0.0, 0.0, 1.0, 3.0, 0.0],
+            vec![5.0, 0.0, 0.0],
+        ] {
+            let d = Distribution1D::new(&weights);
+            let n = weights.len();
+            for k in 0..=1000 {
+                let u = (k as f32 / 1000.0).min(1.0 - f32::EPSILON);
+                let expected = (0..n).find(|&i| d.cdf[i + 1] > u as f64).unwrap_or(n - 1);
+                assert_eq!(d.sample_discrete(u).0, expected, "{weights:?} u={u}");
+            }
+            assert_eq!(d.sample_discrete(f32::NAN).0, 0);
+        }
     }
 
     #[test]

@@ -63,6 +63,11 @@ impl Tri8 {
         }
     }
 
+    /// The child slots this packet holds triangles of.
+    pub(super) fn slots(&self) -> u32 {
+        self.slot_bit.iter().fold(0, |m, &b| m | b as u32)
+    }
+
     /// Lanes whose child slot is in `slots`.
     #[inline(always)]
     pub(super) fn active(&self, slots: u32) -> u32 {

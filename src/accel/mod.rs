@@ -155,6 +155,10 @@ struct Node8 {
     /// This node's leaf spheres: `spheres[sphere..sphere + n_spheres]`.
     sphere: u32,
     n_spheres: u32,
+    /// The child slots each of the first eight packets holds triangles
+    /// of, so packets of missed leaves are skipped without loading them
+    /// (packets are cold: a miss each). Later packets are all-ones.
+    packet_slots: [u8; 8],
 }
 
 const STACK_SIZE: usize = 128;
@@ -243,7 +247,7 @@ impl Accel {
         if self.nodes.is_empty() {
             return;
         }
-        let inv = Vec3::new(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+        let inv = safe_inverse(d);
         // Slab planes as t = plane·inv − o·inv, one fused multiply-add each.
         let inv_x = f32x8::splat(inv.x);
         let inv_y = f32x8::splat(inv.y);
@@ -295,7 +299,11 @@ impl Accel {
                 // Lanes hit in node order (slot, then primitive), nearest
                 // strictly first: the order the scalar loop visited them in.
                 let packets = node.packet as usize..(node.packet + node.n_packets) as usize;
-                for packet in &self.packets[packets] {
+                for (k, packet) in self.packets[packets].iter().enumerate() {
+                    let slots = node.packet_slots.get(k).map_or(0xff, |&m| m as u32);
+                    if slots & leaf_hit == 0 {
+                        continue;
+                    }
                     let active = packet.active(leaf_hit);
                     if active == 0 {
                         continue;
@@ -370,13 +378,14 @@ impl Accel {
     }
 }
 
+/// 1/d per axis, with near-zero components replaced by ±ε·10⁻⁶ so the
+/// slab distances stay finite; one packed division for the three axes.
 #[inline(always)]
-fn safe_inverse(x: f32) -> f32 {
-    if x.abs() <= f32::EPSILON * 1e-6 {
-        1.0 / (f32::EPSILON * 1e-6).copysign(x)
-    } else {
-        1.0 / x
-    }
+fn safe_inverse(d: Vec3) -> Vec3 {
+    const TINY: f32 = f32::EPSILON * 1e-6;
+    let d = Vec3A::from(d);
+    let tiny = Vec3A::splat(TINY).copysign(d);
+    Vec3::from(Vec3A::ONE / Vec3A::select(d.abs().cmple(Vec3A::splat(TINY)), tiny, d))
 }
 
 /// Decodes obvhs's quantised child boxes (plane = p + 2^(e−127)·q) into
@@ -399,6 +408,7 @@ fn decode_nodes(bvh: &CwBvh, geometry: &[PrimGeom]) -> (Vec<Node8>, Vec<Tri8>, V
                 n_packets: 0,
                 sphere: spheres.len() as u32,
                 n_spheres: 0,
+                packet_slots: [0; 8],
             };
             let mut leaves = Vec::new();
             for slot in 0..8 {
@@ -419,6 +429,10 @@ fn decode_nodes(bvh: &CwBvh, geometry: &[PrimGeom]) -> (Vec<Node8>, Vec<Tri8>, V
                 }
             }
             out.n_packets = pack_node_leaves(&leaves, bvh, geometry, &mut packets, &mut spheres);
+            let first = out.packet as usize;
+            for (mask, packet) in out.packet_slots.iter_mut().zip(&packets[first..]) {
+                *mask = packet.slots() as u8;
+            }
             out.n_spheres = spheres.len() as u32 - out.sphere;
             out
         })

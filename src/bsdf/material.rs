@@ -26,6 +26,8 @@ fn check_texture(name: &str, t: &Texture) -> Result<(), String> {
                 ));
             }
         }
+        // Finite and non-negative by construction.
+        Texture::Bitmap8(_) => {}
         Texture::Bitmap(img) => {
             if img.non_finite_pixels() > 0 {
                 return Err(format!("{name}: bitmap contains non-finite pixels"));
@@ -47,6 +49,10 @@ fn texture_mean(t: &Texture) -> f32 {
         Texture::Bitmap(img) => {
             let n = img.pixels.len().max(1);
             (img.pixels.iter().map(|&p| luminance(p) as f64).sum::<f64>() / n as f64) as f32
+        }
+        Texture::Bitmap8(img) => {
+            let n = (img.width * img.height).max(1);
+            (img.pixels().map(|p| luminance(p) as f64).sum::<f64>() / n as f64) as f32
         }
     };
     if m.is_finite() { m.max(0.0) } else { 0.0 }

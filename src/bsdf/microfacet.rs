@@ -141,7 +141,7 @@ pub fn half_vector(wo: Vec3, wi: Vec3) -> Option<Vec3> {
     let h = wo + wi;
     let l2 = h.length_squared();
     if l2 > 0.0 && l2.is_finite() {
-        Some(h / l2.sqrt())
+        Some(crate::math::div3(h, l2.sqrt()))
     } else {
         None
     }

@@ -171,22 +171,18 @@ pub fn trace_path<G: Guide>(
         if settings.nee && !smooth_only && !scene.lights.is_empty() {
             let u_sel = rng.next_f32();
             let u_light = rng.next_2d();
-            if let Some(ls) = scene.lights.sample(it.p, u_sel, u_light) {
+            let origin = |dir| spawn_origin(scene, it.p, it.ng, dir);
+            if let Some(ls) = scene.lights.sample(it.p, origin, u_sel, u_light) {
                 let wi = it.frame.to_local(ls.wi);
-                let f = bsdf.eval(wo, wi);
+                // One evaluation for both: rough plastic computes them together.
+                let (f, pdf_bsdf) = bsdf.eval_pdf(wo, wi);
                 if f != Spectrum::ZERO {
-                    let origin = spawn_origin(scene, it.p, it.ng, ls.wi);
-                    // Aim from the offset origin at the sampled point itself.
-                    let (dir, tmax) = if ls.dist.is_finite() {
-                        let to = it.p + ls.wi * ls.dist - origin;
-                        let len = to.length();
-                        (to / len, len * (1.0 - 1e-4))
-                    } else {
-                        (ls.wi, f32::INFINITY)
-                    };
+                    // The sample is aimed from the offset origin at the
+                    // sampled point itself.
+                    let tmax = ls.dist * (1.0 - 1e-4);
                     counters.shadow_rays += 1;
-                    if tmax > 0.0 && !scene.occluded_except(origin, dir, tmax, ls.prim) {
-                        let mut pdf_scatter = bsdf.pdf(wo, wi);
+                    if tmax > 0.0 && !scene.occluded_except(ls.origin, ls.wi, tmax, ls.prim) {
+                        let mut pdf_scatter = pdf_bsdf;
                         if let Some(g) = guide_vertex.as_mut() {
                             let a = g.bsdf_fraction();
                             pdf_scatter = a * pdf_scatter + (1.0 - a) * g.pdf(ls.wi);
@@ -299,7 +295,7 @@ pub fn trace_path<G: Guide>(
                     if !(rng.next_f32() < q) {
                         break;
                     }
-                    throughput /= q;
+                    throughput = crate::math::div3(throughput, q);
                 }
             }
         }

@@ -66,6 +66,7 @@ pub(super) struct Builder<'a> {
     pub(super) shapes: Vec<PendingShape>,
     pub(super) infinite_lights: Vec<Light>,
     pub(super) image_cache: HashMap<(PathBuf, bool), Arc<RgbImage>>,
+    pub(super) bitmap_cache: HashMap<(PathBuf, bool), crate::texture::Texture>,
     pub(super) has_integrator: bool,
 }
 
@@ -80,6 +81,7 @@ impl<'a> Builder<'a> {
             shapes: Vec::new(),
             infinite_lights: Vec::new(),
             image_cache: HashMap::new(),
+            bitmap_cache: HashMap::new(),
             has_integrator: false,
         }
     }

@@ -5,7 +5,7 @@ use super::loader::Builder;
 use super::xml::Properties;
 use crate::bsdf::{ConductorFresnel, Material, MaterialKind};
 use crate::math::Spectrum;
-use crate::texture::{RgbImage, Texture, load_image};
+use crate::texture::{RgbImage, Texture, load_bitmap, load_image};
 use glam::Vec2;
 use roxmltree::Node;
 use std::path::Path;
@@ -62,7 +62,7 @@ impl Builder<'_> {
                     }
                 }
                 let path = ctx.resolve_path(fnode, &file)?;
-                Texture::Bitmap(self.image(&path, raw, fnode)?)
+                self.bitmap(&path, raw, fnode)?
             }
             "checkerboard" => {
                 let c0 = props.rgb("color0")?.unwrap_or(Spectrum::splat(0.4));
@@ -107,12 +107,44 @@ impl Builder<'_> {
         if let Some(img) = self.image_cache.get(&key) {
             return Ok(img.clone());
         }
-        if !path.exists() {
-            return Err(self
-                .ctx
-                .error(node, format!("file not found: '{}'", path.display())));
-        }
+        self.check_exists(path, node)?;
         let img = load_image(path, raw).map_err(|e| self.ctx.error(node, e))?;
+        let img = Arc::new(self.checked(img, path, node)?);
+        self.image_cache.insert(key, img.clone());
+        Ok(img)
+    }
+
+    /// A `bitmap` texture, cached like [`image`](Self::image).
+    fn bitmap(&mut self, path: &Path, raw: bool, node: Node) -> Result<Texture, SceneError> {
+        let key = (path.to_path_buf(), raw);
+        if let Some(t) = self.bitmap_cache.get(&key) {
+            return Ok(t.clone());
+        }
+        self.check_exists(path, node)?;
+        let tex = match load_bitmap(path, raw).map_err(|e| self.ctx.error(node, e))? {
+            // 8-bit sources decode to finite, non-negative values.
+            Texture::Bitmap(img) => {
+                let img = Arc::unwrap_or_clone(img);
+                Texture::Bitmap(Arc::new(self.checked(img, path, node)?))
+            }
+            t => t,
+        };
+        self.bitmap_cache.insert(key, tex.clone());
+        Ok(tex)
+    }
+
+    fn check_exists(&self, path: &Path, node: Node) -> Result<(), SceneError> {
+        if path.exists() {
+            Ok(())
+        } else {
+            Err(self
+                .ctx
+                .error(node, format!("file not found: '{}'", path.display())))
+        }
+    }
+
+    /// Rejects float images with non-finite or negative pixels.
+    fn checked(&self, img: RgbImage, path: &Path, node: Node) -> Result<RgbImage, SceneError> {
         let bad = img.non_finite_pixels();
         if bad > 0 {
             return Err(self.ctx.error(
@@ -129,8 +161,6 @@ impl Builder<'_> {
                 format!("image '{}' has negative pixels", path.display()),
             ));
         }
-        let img = Arc::new(img);
-        self.image_cache.insert(key, img.clone());
         Ok(img)
     }
 

@@ -2,10 +2,15 @@
 //! spheres, the lat-long `envmap`, and `constant` — with next-event sampling
 //! and the matching solid-angle pdfs for multiple importance sampling.
 
+use crate::math::div3;
 use crate::math::{INV_4PI, PI, Spectrum, luminance};
 use crate::sampling::{Distribution1D, square_to_triangle, square_to_uniform_sphere};
-use crate::texture::RgbImage;
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
+
+mod envmap;
+mod parallelogram;
+pub use envmap::EnvMap;
+use parallelogram::Parallelogram;
 
 /// One emitting triangle, with its shading normals deciding the emitting side.
 #[derive(Clone, Copy, Debug)]
@@ -28,6 +33,8 @@ pub enum Light {
         normals: Vec<Vec3>,
         area_distribution: Distribution1D,
         area: f32,
+        /// Set when the triangles form one parallelogram (a `rectangle`).
+        parallelogram: Option<Parallelogram>,
     },
     /// An `area` emitter on an analytic sphere; `sign` is −1 for flipped normals.
     Sphere {
@@ -41,11 +48,13 @@ pub enum Light {
     Constant(Spectrum),
 }
 
-/// A next-event sample: direction to the light, distance (∞ for lights at
-/// infinity), the emitted radiance and the solid-angle pdf including the
-/// light-selection probability.
+/// A next-event sample: the shadow ray's origin (the shading point offset
+/// off its surface), direction to the light from there and distance (∞ for
+/// lights at infinity), the emitted radiance and the solid-angle pdf (at the
+/// shading point) including the light-selection probability.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
+    pub origin: Vec3,
     pub wi: Vec3,
     pub dist: f32,
     pub radiance: Spectrum,
@@ -111,8 +120,15 @@ impl Lights {
         self.selection.discrete_pdf(light as usize)
     }
 
-    /// Samples a light and a direction towards it from `p`.
-    pub fn sample(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+    /// Samples a light and a direction towards it from `p`; `origin` maps
+    /// a direction leaving `p` to the shadow ray's offset origin.
+    pub fn sample(
+        &self,
+        p: Vec3,
+        origin: impl Fn(Vec3) -> Vec3,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
         if self.lights.is_empty() {
             return None;
         }
@@ -126,7 +142,7 @@ impl Lights {
         if select_pdf <= 0.0 {
             return None;
         }
-        let s = self.lights[index].sample(p, u)?;
+        let s = self.lights[index].sample(p, &origin, u)?;
         let pdf = s.pdf * select_pdf;
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
@@ -224,6 +240,7 @@ impl Light {
         }
         Some(Light::Mesh {
             radiance,
+            parallelogram: Parallelogram::detect(&triangles),
             area_distribution: Distribution1D::new(&areas),
             normals: triangles
                 .iter()
@@ -234,47 +251,64 @@ impl Light {
         })
     }
 
-    fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        match self {
+    fn sample(&self, p: Vec3, origin: &impl Fn(Vec3) -> Vec3, u: Vec2) -> Option<LightSample> {
+        let s = match self {
             Light::Mesh {
                 radiance,
                 triangles,
                 normals,
                 area_distribution,
                 area,
+                parallelogram,
             } => {
-                let (i, _, ux) = area_distribution.sample_discrete(u.x);
-                let t = &triangles[i];
-                let b = square_to_triangle(Vec2::new(ux, u.y));
-                let q = t.p0 + t.e1 * b.x + t.e2 * b.y;
-                let ng = normals[i];
-                let ns = match t.n {
-                    Some(n) => {
-                        (n[0] * (1.0 - b.x - b.y) + n[1] * b.x + n[2] * b.y).normalize_or(ng)
+                let (q, i, ns) = match parallelogram {
+                    Some(pg) => {
+                        let (q, i) = pg.sample(u);
+                        (q, i, normals[i])
                     }
-                    None => ng,
+                    None => {
+                        let (i, _, ux) = area_distribution.sample_discrete(u.x);
+                        let t = &triangles[i];
+                        let b = square_to_triangle(Vec2::new(ux, u.y));
+                        let q = t.p0 + t.e1 * b.x + t.e2 * b.y;
+                        let ns = match t.n {
+                            Some(n) => (n[0] * (1.0 - b.x - b.y) + n[1] * b.x + n[2] * b.y)
+                                .normalize_or(normals[i]),
+                            None => normals[i],
+                        };
+                        (q, i, ns)
+                    }
                 };
-                let d = q - p;
-                let dist2 = d.length_squared();
-                let dist = dist2.sqrt();
+                let t = &triangles[i];
+                let ng = normals[i];
+                // The shadow ray is aimed from its offset origin, and its
+                // direction shades: one normalisation. The pdf is measured
+                // at `p`, as `pdf_area` measures it for BSDF-sampled hits.
+                let d_p = q - p;
+                let dist2 = d_p.length_squared();
+                let o = origin(d_p);
+                let to = q - o;
+                let dist = to.length();
                 if dist <= 0.0 {
                     return None;
                 }
-                let wi = d / dist;
+                let wi = div3(to, dist);
                 if ns.dot(-wi) <= 0.0 {
                     return None; // the back side does not emit
                 }
-                let cos = ng.dot(wi).abs();
-                if cos <= 0.0 {
+                // cos θ_light / dist² = |ng·d| / dist³
+                let cos_dist = ng.dot(d_p).abs();
+                if cos_dist <= 0.0 {
                     return None;
                 }
-                Some(LightSample {
+                return Some(LightSample {
+                    origin: o,
                     wi,
                     dist,
                     radiance: *radiance,
-                    pdf: dist2 / (cos * area),
+                    pdf: dist2 * dist2.sqrt() / (cos_dist * area),
                     prim: t.prim,
-                })
+                });
             }
             Light::Sphere {
                 radiance,
@@ -297,13 +331,17 @@ impl Light {
                         return None;
                     }
                     let cos = n.dot(wi).abs();
-                    return Some(LightSample {
-                        wi,
-                        dist,
-                        radiance: *radiance,
-                        pdf: dist2 / (cos * 4.0 * PI * radius * radius),
-                        prim: *prim,
-                    });
+                    return Some(aim_from_origin(
+                        LightSample {
+                            origin: p,
+                            wi,
+                            dist,
+                            radiance: *radiance,
+                            pdf: dist2 / (cos * 4.0 * PI * radius * radius),
+                            prim: *prim,
+                        },
+                        origin,
+                    ));
                 }
                 if *sign < 0.0 {
                     return None; // flipped sphere seen from outside: emits inward only
@@ -327,6 +365,7 @@ impl Light {
                     return None;
                 }
                 Some(LightSample {
+                    origin: p,
                     wi,
                     dist,
                     radiance: *radiance,
@@ -337,6 +376,7 @@ impl Light {
             Light::Env(env) => {
                 let (wi, pdf) = env.sample(u)?;
                 Some(LightSample {
+                    origin: p,
                     wi,
                     dist: f32::INFINITY,
                     radiance: env.eval(wi),
@@ -345,13 +385,32 @@ impl Light {
                 })
             }
             Light::Constant(c) => Some(LightSample {
+                origin: p,
                 wi: square_to_uniform_sphere(u),
                 dist: f32::INFINITY,
                 radiance: *c,
                 pdf: INV_4PI,
                 prim: u32::MAX,
             }),
-        }
+        };
+        s.map(|s| aim_from_origin(s, origin))
+    }
+}
+
+/// Re-aims a sample taken from `s.origin` (the shading point) from the
+/// offset shadow-ray origin, at the sampled point itself.
+fn aim_from_origin(s: LightSample, origin: &impl Fn(Vec3) -> Vec3) -> LightSample {
+    let o = origin(s.wi);
+    if !s.dist.is_finite() {
+        return LightSample { origin: o, ..s };
+    }
+    let to = s.origin + s.wi * s.dist - o;
+    let dist = to.length();
+    LightSample {
+        origin: o,
+        wi: div3(to, dist),
+        dist,
+        ..s
     }
 }
 
@@ -364,177 +423,4 @@ fn sphere_cone_pdf(center: Vec3, radius: f32, p: Vec3) -> Option<f32> {
     let sin_max2 = radius * radius / dist_c2;
     let cos_max = (1.0 - sin_max2).max(0.0).sqrt();
     Some(1.0 / (2.0 * PI * (sin_max2 / (1.0 + cos_max))))
-}
-
-/// Mitsuba's lat-long environment map (scene pack README, "envmap").
-#[derive(Clone, Debug)]
-pub struct EnvMap {
-    pub image: RgbImage,
-    pub scale: f32,
-    to_local: Mat3,
-    to_world: Mat3,
-    rows: Distribution1D,
-    row_cdfs: Vec<Distribution1D>,
-}
-
-impl EnvMap {
-    pub fn new(image: RgbImage, scale: f32, to_world: Mat3) -> Self {
-        let (w, h) = (image.width, image.height);
-        // Piecewise-constant sampling over a W×H grid in (u, v). Each cell's
-        // weight bounds the bilinear lookup over the cell from above (max of
-        // the pixels it can touch), so every direction with non-zero radiance
-        // has non-zero pdf.
-        let mut row_cdfs = Vec::with_capacity(h);
-        let mut row_weights = Vec::with_capacity(h);
-        for j in 0..h {
-            let y_lo = ((j as f32 / h as f32) * (h as f32 - 1.0)).floor() as usize;
-            let y_hi = (((j + 1) as f32 / h as f32) * (h as f32 - 1.0)).ceil() as usize;
-            let theta0 = PI * j as f32 / h as f32;
-            let theta1 = PI * (j + 1) as f32 / h as f32;
-            let max_sin = if theta0 <= 0.5 * PI && theta1 >= 0.5 * PI {
-                1.0
-            } else {
-                theta0.sin().max(theta1.sin())
-            };
-            let mut weights = Vec::with_capacity(w);
-            for i in 0..w {
-                let mut m = 0.0f32;
-                for y in y_lo..=y_hi.min(h - 1) {
-                    for dx in [w - 1, 0, 1] {
-                        let x = (i + dx) % w;
-                        let v = luminance(image.get(x, y));
-                        if v.is_finite() {
-                            m = m.max(v);
-                        }
-                    }
-                }
-                weights.push(m * max_sin);
-            }
-            let d = Distribution1D::new(&weights);
-            row_weights.push(d.integral as f32);
-            row_cdfs.push(d);
-        }
-        EnvMap {
-            rows: Distribution1D::new(&row_weights),
-            row_cdfs,
-            image,
-            scale,
-            to_local: to_world.inverse(),
-            to_world,
-        }
-    }
-
-    fn direction_to_uv(&self, d: Vec3) -> Vec2 {
-        let l = self.to_local * d;
-        let mut u = l.x.atan2(-l.z) / (2.0 * PI);
-        if u < 0.0 {
-            u += 1.0;
-        }
-        let v = l.y.clamp(-1.0, 1.0).acos() / PI;
-        Vec2::new(u.min(1.0), v)
-    }
-
-    pub fn eval(&self, d: Vec3) -> Spectrum {
-        let uv = self.direction_to_uv(d);
-        let (w, h) = (self.image.width, self.image.height);
-        let x = uv.x * w as f32 - 0.5;
-        let y = (uv.y * (h as f32 - 1.0)).clamp(0.0, h as f32 - 1.0);
-        let (fx, fy) = (x.floor(), y.floor());
-        let (tx, ty) = (x - fx, y - fy);
-        let x0 = (fx as i64).rem_euclid(w as i64) as usize;
-        let x1 = (x0 + 1) % w;
-        let y0 = fy as usize;
-        let y1 = (y0 + 1).min(h - 1);
-        let top = self.image.get(x0, y0) * (1.0 - tx) + self.image.get(x1, y0) * tx;
-        let bot = self.image.get(x0, y1) * (1.0 - tx) + self.image.get(x1, y1) * tx;
-        let v = (top * (1.0 - ty) + bot * ty) * self.scale;
-        if crate::math::is_finite3(v) {
-            v.max(Spectrum::ZERO)
-        } else {
-            Spectrum::ZERO
-        }
-    }
-
-    pub fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
-        let (j, pj, uy) = self.rows.sample_discrete(u.y);
-        let (i, pi, ux) = self.row_cdfs[j].sample_discrete(u.x);
-        let (w, h) = (self.image.width as f32, self.image.height as f32);
-        let uv = Vec2::new((i as f32 + ux) / w, (j as f32 + uy) / h);
-        let pdf_uv = pj * pi * w * h;
-        let theta = uv.y * PI;
-        let phi = uv.x * 2.0 * PI;
-        let sin_t = theta.sin();
-        if sin_t <= 0.0 || pdf_uv <= 0.0 {
-            return None;
-        }
-        let local = Vec3::new(sin_t * phi.sin(), theta.cos(), -sin_t * phi.cos());
-        let d = (self.to_world * local).normalize();
-        Some((d, pdf_uv / (2.0 * PI * PI * sin_t)))
-    }
-
-    pub fn pdf(&self, d: Vec3) -> f32 {
-        let uv = self.direction_to_uv(d);
-        let (w, h) = (self.image.width, self.image.height);
-        let i = ((uv.x * w as f32) as usize).min(w - 1);
-        let j = ((uv.y * h as f32) as usize).min(h - 1);
-        let pdf_uv = self.rows.discrete_pdf(j) * self.row_cdfs[j].discrete_pdf(i) * (w * h) as f32;
-        let sin_t = (uv.y * PI).sin();
-        if sin_t <= 0.0 {
-            return 0.0;
-        }
-        pdf_uv / (2.0 * PI * PI * sin_t)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sampling::Rng;
-
-    #[test]
-    fn envmap_sampling_matches_its_pdf_and_integrates_radiance() {
-        // A small map with a bright spot and a dark band.
-        let (w, h) = (16, 8);
-        let pixels = (0..w * h)
-            .map(|k| {
-                let (x, y) = (k % w, k / w);
-                if (x, y) == (3, 2) {
-                    Spectrum::splat(50.0)
-                } else if y == 6 {
-                    Spectrum::ZERO
-                } else {
-                    Spectrum::splat(1.0)
-                }
-            })
-            .collect();
-        let env = EnvMap::new(
-            RgbImage {
-                width: w,
-                height: h,
-                pixels,
-            },
-            1.0,
-            Mat3::from_rotation_y(0.3),
-        );
-        let mut rng = Rng::new(9, 0);
-        let mut est_is = 0.0f64;
-        let mut est_uniform = 0.0f64;
-        let mut mismatches = 0u32;
-        let n = 200_000;
-        for _ in 0..n {
-            if let Some((d, pdf)) = env.sample(rng.next_2d()) {
-                // A direction within rounding of a cell boundary can map
-                // back to the neighbouring cell; that must stay rare.
-                if (env.pdf(d) - pdf).abs() > 1e-3 * pdf {
-                    mismatches += 1;
-                }
-                est_is += (luminance(env.eval(d)) / pdf) as f64;
-            }
-            let d = square_to_uniform_sphere(rng.next_2d());
-            est_uniform += (luminance(env.eval(d)) * 4.0 * PI) as f64;
-        }
-        assert!(mismatches < n / 1000, "{mismatches} pdf mismatches");
-        let (a, b) = (est_is / n as f64, est_uniform / n as f64);
-        assert!((a - b).abs() < 0.02 * b, "importance {a} vs uniform {b}");
-    }
 }

@@ -6,6 +6,9 @@ use glam::Vec2;
 use std::path::Path;
 use std::sync::Arc;
 
+mod bitmap8;
+pub use bitmap8::Bitmap8;
+
 /// A linear-RGB image, row 0 at the top.
 #[derive(Clone, Debug)]
 pub struct RgbImage {
@@ -33,6 +36,8 @@ impl RgbImage {
 pub enum Texture {
     Constant(Spectrum),
     Bitmap(Arc<RgbImage>),
+    /// A bitmap from an 8-bit source, same lookups as `Bitmap`.
+    Bitmap8(Arc<Bitmap8>),
     Checkerboard {
         color0: Spectrum,
         color1: Spectrum,
@@ -46,6 +51,7 @@ impl Texture {
         match self {
             Texture::Constant(c) => *c,
             Texture::Bitmap(img) => bilinear_periodic(img, uv),
+            Texture::Bitmap8(img) => img.bilinear_periodic(uv),
             Texture::Checkerboard {
                 color0,
                 color1,
@@ -68,6 +74,7 @@ impl Texture {
         match self {
             Texture::Constant(c) => *c,
             Texture::Bitmap(img) => img.pixels.iter().fold(Spectrum::ZERO, |a, &p| a.max(p)),
+            Texture::Bitmap8(img) => img.pixels().fold(Spectrum::ZERO, |a, p| a.max(p)),
             Texture::Checkerboard { color0, color1, .. } => color0.max(*color1),
         }
     }
@@ -80,21 +87,31 @@ impl Texture {
 /// Bilinear lookup at continuous pixel coordinates (u·W − 0.5, v·H − 0.5)
 /// with periodic wrap in both directions, as Mitsuba's `bitmap`.
 fn bilinear_periodic(img: &RgbImage, uv: Vec2) -> Spectrum {
-    let (w, h) = (img.width as i64, img.height as i64);
-    let x = uv.x * img.width as f32 - 0.5;
-    let y = uv.y * img.height as f32 - 0.5;
-    if !x.is_finite() || !y.is_finite() {
+    let Some(([x0, x1, y0, y1], tx, ty)) = bilinear_footprint(img.width, img.height, uv) else {
         return img.get(0, 0);
+    };
+    let top = img.get(x0, y0) * (1.0 - tx) + img.get(x1, y0) * tx;
+    let bottom = img.get(x0, y1) * (1.0 - tx) + img.get(x1, y1) * tx;
+    top * (1.0 - ty) + bottom * ty
+}
+
+/// The four texels ([x0, x1, y0, y1]) and weights (tx, ty) of a bilinear
+/// lookup; `None` for a non-finite `uv`.
+#[inline(always)]
+fn bilinear_footprint(width: usize, height: usize, uv: Vec2) -> Option<([usize; 4], f32, f32)> {
+    let (w, h) = (width as i64, height as i64);
+    let x = uv.x * width as f32 - 0.5;
+    let y = uv.y * height as f32 - 0.5;
+    if !x.is_finite() || !y.is_finite() {
+        return None;
     }
     let (fx, fy) = (x.floor(), y.floor());
     let (tx, ty) = (x - fx, y - fy);
     let x0 = wrap(fx as i64, w);
     let y0 = wrap(fy as i64, h);
-    let x1 = if x0 + 1 == img.width { 0 } else { x0 + 1 };
-    let y1 = if y0 + 1 == img.height { 0 } else { y0 + 1 };
-    let top = img.get(x0, y0) * (1.0 - tx) + img.get(x1, y0) * tx;
-    let bottom = img.get(x0, y1) * (1.0 - tx) + img.get(x1, y1) * tx;
-    top * (1.0 - ty) + bottom * ty
+    let x1 = if x0 + 1 == width { 0 } else { x0 + 1 };
+    let y1 = if y0 + 1 == height { 0 } else { y0 + 1 };
+    Some(([x0, x1, y0, y1], tx, ty))
 }
 
 /// `i.rem_euclid(n)` without a division in the common case: most lookups
@@ -132,6 +149,41 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// A `bitmap` texture's image: 8-bit PNG/JPEG sources stay packed
+/// ([`Bitmap8`]), everything else is loaded by [`load_image`].
+pub fn load_bitmap(path: &Path, raw: bool) -> Result<Texture, String> {
+    let is_exr = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        let img = decode_file(path)?;
+        use image::DynamicImage::*;
+        if matches!(
+            img,
+            ImageLuma8(_) | ImageLumaA8(_) | ImageRgb8(_) | ImageRgba8(_)
+        ) {
+            let decode = |c: f32| if raw { c } else { srgb_to_linear(c) };
+            return Ok(Texture::Bitmap8(Arc::new(Bitmap8::new(
+                &img.to_rgb8(),
+                decode,
+            ))));
+        }
+    }
+    Ok(Texture::Bitmap(Arc::new(load_image(path, raw)?)))
+}
+
+fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
+    let bytes =
+        std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
+    let img = image::load_from_memory(&bytes)
+        .map_err(|e| format!("cannot decode image '{}': {e}", path.display()))?;
+    if img.width() == 0 || img.height() == 0 {
+        return Err(format!("image '{}' is empty", path.display()));
+    }
+    Ok(img)
+}
+
 /// Loads a PNG/JPEG (sRGB-decoded unless `raw`) or EXR (linear) image.
 /// Grey images are replicated to RGB and alpha is ignored.
 pub fn load_image(path: &Path, raw: bool) -> Result<RgbImage, String> {
@@ -143,14 +195,8 @@ pub fn load_image(path: &Path, raw: bool) -> Result<RgbImage, String> {
     if ext == "exr" {
         return crate::film::exr_io::read_rgb(path);
     }
-    let bytes =
-        std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    let img = image::load_from_memory(&bytes)
-        .map_err(|e| format!("cannot decode image '{}': {e}", path.display()))?;
+    let img = decode_file(path)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
-    if w == 0 || h == 0 {
-        return Err(format!("image '{}' is empty", path.display()));
-    }
     // 16-bit sources keep their precision through the f32 conversion.
     let rgb = img.to_rgb32f();
     let decode = |c: f32| if raw { c } else { srgb_to_linear(c) };
