@@ -76,28 +76,47 @@ pub fn rsqrt_x16(x: f32x16) -> f32x16 {
     y * (-hx).mul_add(y * y, f32x16::splat(1.5))
 }
 
+/// f32 and f32x16 alike: the polynomial below is written once for both,
+/// so the scalar and wide kernels run the same operations in the same order.
+pub trait PolyLane: Copy + std::ops::Mul<Output = Self> {
+    fn splat(c: f32) -> Self;
+    /// self·a + b, fused.
+    fn fma(self, a: Self, b: Self) -> Self;
+}
+
+impl PolyLane for f32 {
+    #[inline(always)]
+    fn splat(c: f32) -> Self {
+        c
+    }
+    #[inline(always)]
+    fn fma(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, b)
+    }
+}
+
+impl PolyLane for f32x16 {
+    #[inline(always)]
+    fn splat(c: f32) -> Self {
+        f32x16::splat(c)
+    }
+    #[inline(always)]
+    fn fma(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, b)
+    }
+}
+
 /// θ/sin θ on [0, 1] (the polynomial alone), in Estrin's form: 12
 /// operations instead of Horner's 9, but a dependency chain of 5 instead
 /// of 9, which matters because a descent waits for each level's result.
 #[inline(always)]
-pub fn theta_over_sin_unit(x: f32) -> f32 {
-    let c = THETA_OVER_SIN;
-    let (x2, pair) = (x * x, |i: usize| c[i + 1].mul_add(x, c[i]));
+pub fn theta_over_sin_poly<T: PolyLane>(x: T) -> T {
+    let c = THETA_OVER_SIN.map(T::splat);
+    let (x2, pair) = (x * x, |i: usize| c[i + 1].fma(x, c[i]));
     let x4 = x2 * x2;
-    let lo = pair(2).mul_add(x2, pair(0));
-    let hi = pair(6).mul_add(x2, pair(4));
-    pair(8).mul_add(x4 * x4, hi.mul_add(x4, lo))
-}
-
-/// [`theta_over_sin_unit`] on 16 lanes.
-#[inline(always)]
-pub fn theta_over_sin_unit_x16(x: f32x16) -> f32x16 {
-    let c = THETA_OVER_SIN.map(f32x16::splat);
-    let (x2, pair) = (x * x, |i: usize| c[i + 1].mul_add(x, c[i]));
-    let x4 = x2 * x2;
-    let lo = pair(2).mul_add(x2, pair(0));
-    let hi = pair(6).mul_add(x2, pair(4));
-    pair(8).mul_add(x4 * x4, hi.mul_add(x4, lo))
+    let lo = pair(2).fma(x2, pair(0));
+    let hi = pair(6).fma(x2, pair(4));
+    pair(8).fma(x4 * x4, hi.fma(x4, lo))
 }
 
 /// θ/sin θ of an edge between unit vectors with dot product `d` and cross
@@ -106,7 +125,7 @@ pub fn theta_over_sin_unit_x16(x: f32x16) -> f32x16 {
 /// product, which stays accurate near d = −1 where √(1 − d²) would not.
 #[inline(always)]
 pub fn theta_over_sin(d: f32, q: impl FnOnce() -> f32) -> f32 {
-    let p = theta_over_sin_unit(d.abs());
+    let p = theta_over_sin_poly(d.abs());
     if d < 0.0 {
         std::f32::consts::PI.mul_add(rsqrt(q().max(RSQRT_FLOOR)), -p)
     } else {
@@ -118,7 +137,7 @@ pub fn theta_over_sin(d: f32, q: impl FnOnce() -> f32) -> f32 {
 /// when some lane needs it.
 #[inline(always)]
 pub fn theta_over_sin_x16(d: f32x16, q: impl FnOnce() -> f32x16) -> f32x16 {
-    let p = theta_over_sin_unit_x16(d.abs());
+    let p = theta_over_sin_poly(d.abs());
     let obtuse = d.simd_lt(f32x16::splat(0.0));
     if obtuse.any() {
         let rs = rsqrt_x16(q().fast_max(f32x16::splat(RSQRT_FLOOR)));
