@@ -189,9 +189,10 @@ fn guiding_does_not_pay(
     let (first, last) = (films.first()?, films.last()?);
     let first_seconds = done.first()?.seconds;
     let mu = pooled_mean(films);
-    let per_sample = |f: &Film| iteration_variance(f, &mu).0 * f.spp as f64;
-    let eff = |f: &Film, s: f64| 1.0 / (per_sample(f) * s / f.spp.max(1) as f64);
-    let (e0, e1) = (eff(first, first_seconds), eff(last, last_seconds));
+    let (e0, e1) = (
+        efficiency(first, first_seconds, &mu),
+        efficiency(last, last_seconds, &mu),
+    );
     (e0.is_finite() && e1.is_finite() && e1 < e0).then(|| {
         format!(
             "guiding does not pay here (trained efficiency {:.3e} < unguided {:.3e}): the rest of the budget is rendered by path tracing with NEE",
@@ -471,6 +472,15 @@ pub fn render_guided<M: WeightModel>(
         films.push(film);
     }
 
+    if let Some(t) = trial {
+        weights_check = format!(
+            "weights check unfinished: the budget ended after {} + {} spp alternating {} and {} weights",
+            t.films[0].spp,
+            t.films[1].spp,
+            model.name(),
+            cheaper.as_ref().map_or("", |c| c.name()),
+        );
+    }
     let refs: Vec<&Film> = films.iter().collect();
     let (image, variance, weights) = combine(&refs).unwrap_or_else(|| {
         (
