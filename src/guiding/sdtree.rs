@@ -200,8 +200,10 @@ impl SdTree {
         entry & !OCTANT_LEAF
     }
 
-    /// [`Self::lookup`] on the binary tree itself (the octree's reference).
-    pub fn lookup_binary(&self, p: Vec3) -> u32 {
+    /// [`Self::lookup`] on the binary tree itself: the octree's reference in
+    /// the tests, nothing else needs it.
+    #[cfg(test)]
+    fn lookup_binary(&self, p: Vec3) -> u32 {
         let x = (p - self.min) / self.side;
         let mut c = [unit(x.x), unit(x.y), unit(x.z)];
         let mut node = self.nodes[0];

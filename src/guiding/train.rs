@@ -202,10 +202,10 @@ fn guiding_does_not_pay(
 }
 
 /// Efficiency 1 / (variance per sample × seconds per sample) of `film`
-/// rendered in `seconds`, its variance measured about `mu`.
+/// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
+/// it is 1 / (variance of the film's mean × seconds).
 fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
-    let spp = film.spp.max(1) as f64;
-    1.0 / (iteration_variance(film, mu).0 * spp * (seconds / spp))
+    1.0 / (iteration_variance(film, mu).0 * seconds)
 }
 
 /// Passes of the comparison iteration alternate between the model's child
