@@ -1,12 +1,17 @@
-//! Kernels of radiance guiding on a realistically refined quadtree: one
-//! sample (descent + point placement) and one pdf evaluation.
+//! Kernels of radiance and product guiding on a realistically refined
+//! quadtree: one sample (descent + point placement) and one pdf evaluation,
+//! and for the product the per-vertex LTC set-up they include.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
+use ltcguide::bsdf::{GgxLobe, Lobes};
 use ltcguide::directional::{SQUARE_TO_SOLID_ANGLE_PDF, dir_to_square};
 use ltcguide::guiding::build::QuadTreeBuilder;
-use ltcguide::guiding::descent::{RadianceWeights, pdf, sample, sample_direction};
+use ltcguide::guiding::descent::{RadianceWeights, pdf, root_total, sample, sample_direction};
+use ltcguide::guiding::product::{ChildMemo, ProductWeights, guiding_ltc_options};
 use ltcguide::guiding::quadtree::QuadTree;
+use ltcguide::ltc::{LtcTable, ProductKernel, ShadingLtc};
+use ltcguide::math::Frame;
 use ltcguide::math::PI;
 use ltcguide::sampling::{Rng, square_to_uniform_sphere};
 use std::hint::black_box;
@@ -99,5 +104,88 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench);
+/// A shading point of a rough-plastic-like surface: a diffuse base under a
+/// GGX coat, at a random normal and outgoing direction, α spread over the
+/// glossy range the product treats as glossy (≤ 0.5).
+struct ShadingPoint {
+    lobes: Lobes,
+    frame: Frame,
+    wo: Vec3,
+}
+
+fn shading_points(n: usize) -> Vec<ShadingPoint> {
+    let mut rng = Rng::new(5, 3);
+    (0..n)
+        .map(|i| {
+            let normal = square_to_uniform_sphere(rng.next_2d());
+            let mut wo = square_to_uniform_sphere(rng.next_2d());
+            wo.z = wo.z.abs().max(0.05);
+            ShadingPoint {
+                lobes: Lobes {
+                    diffuse: 0.5,
+                    ggx: [GgxLobe {
+                        weight: 0.5,
+                        alpha: [0.02, 0.1, 0.3][i % 3],
+                    }],
+                    ggx_count: 1,
+                    delta: 0.0,
+                    side: 1.0,
+                },
+                frame: Frame::from_normal(normal),
+                wo: wo.normalize(),
+            }
+        })
+        .collect()
+}
+
+/// Per guided vertex, as the integrator pays it: the shading point's LTC
+/// mixture (`ShadingLtc::new`), the root normaliser, then one sample
+/// (`product_sample`) or one pdf of a direction sampled beforehand
+/// (`product_pdf`), each with fresh weights.
+fn bench_product(c: &mut Criterion) {
+    let tree = refined_tree();
+    let table = LtcTable::load_default().expect("data/ltc table");
+    let opts = guiding_ltc_options();
+    let points = shading_points(256);
+    let weights = |p: &ShadingPoint| ProductWeights::Product {
+        ltc: ShadingLtc::new(&p.lobes, &p.frame, p.wo, &table, &opts),
+        kernel: ProductKernel::Simd,
+        memo: ChildMemo::default(),
+    };
+    let mut rng = Rng::new(8, 1);
+    let us: Vec<Vec2> = (0..points.len()).map(|_| rng.next_2d()).collect();
+    let sampled: Vec<Vec2> = points
+        .iter()
+        .zip(&us)
+        .map(|(p, &u)| sample(&tree, &mut weights(p), u).map_or(u, |s| s.0))
+        .collect();
+    let mut i = 0usize;
+    c.bench_function("guiding/product_sample", |b| {
+        b.iter(|| {
+            i = (i + 1) & 255;
+            let mut w = weights(black_box(&points[i]));
+            let _ = black_box(root_total(&tree, &mut w));
+            black_box(sample(black_box(&tree), &mut w, black_box(us[i])))
+        })
+    });
+    let mut j = 0usize;
+    c.bench_function("guiding/product_pdf", |b| {
+        b.iter(|| {
+            j = (j + 1) & 255;
+            let mut w = weights(black_box(&points[j]));
+            let _ = black_box(root_total(&tree, &mut w));
+            black_box(pdf(black_box(&tree), &mut w, black_box(sampled[j])))
+        })
+    });
+    let mut k = 0usize;
+    c.bench_function("guiding/product_vertex_setup", |b| {
+        b.iter(|| {
+            k = (k + 1) & 255;
+            let p = black_box(&points[k]);
+            black_box(ShadingLtc::new(&p.lobes, &p.frame, p.wo, &table, &opts))
+        })
+    });
+}
+
+criterion_group!(benches, bench, bench_product);
 criterion_main!(benches);

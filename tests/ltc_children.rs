@@ -447,3 +447,13 @@ fn random_frame(rng: &mut Rng) -> Frame {
     .normalize();
     Frame::from_normal(n)
 }
+
+/// The default plain-quad level is the first whose parallels need no
+/// subdivision, so the default options run the accurate kernels.
+#[test]
+fn first_plain_quad_depth_is_where_parallels_stop_being_subdivided() {
+    use ltcguide::ltc::children::FIRST_PLAIN_QUAD_DEPTH;
+    use ltcguide::ltc::polygon::is_plain_quad_depth;
+    assert!(is_plain_quad_depth(FIRST_PLAIN_QUAD_DEPTH));
+    assert!(!is_plain_quad_depth(FIRST_PLAIN_QUAD_DEPTH - 1));
+}

@@ -125,3 +125,53 @@ fn f32_children_form_factors_match_the_closed_form_at_every_depth() {
     println!("f32 Gauss form factors, depths 6..20: max relative error {worst:.2e}");
     assert!(worst < 2e-5, "{worst}");
 }
+
+/// The lune form of the cosine lobe's quarter-sphere integrals against the
+/// f64 reference (exact clipping): exact at n_x = 0, second order in n_x
+/// (the first-order term cancels by the cells' x ↦ −x symmetry), so it is
+/// accurate where the triangle form of `level1` is not.
+#[test]
+fn cosine_quarter_spheres_near_lune_is_second_order_in_n_x() {
+    use glam::DMat3;
+    use ltcguide::ltc::form_factor::cosine_quarter_spheres_near_lune;
+    use ltcguide::ltc::polygon::cell_integral_reference;
+    use ltcguide::math::Frame;
+    let mut rng = Rng::new(5, 1);
+    let mut worst = [0.0f64; 5];
+    let eps: [f64; 5] = [0.0, 1e-4, 1e-3, 4e-3, 1e-2];
+    for i in 0..200 {
+        // Include the axes themselves (n = ±y, ±z) among the normals.
+        let beta = if i < 4 {
+            i as f64 * PI / 2.0
+        } else {
+            2.0 * PI * rng.next_f64()
+        };
+        for (j, &e) in eps.iter().enumerate() {
+            let s = (1.0 - e * e).sqrt();
+            let n = DVec3::new(
+                if i % 2 == 0 { e } else { -e },
+                s * beta.cos(),
+                s * beta.sin(),
+            );
+            let frame = Frame::from_normal(n.as_vec3());
+            let to_local =
+                DMat3::from_cols(frame.s.as_dvec3(), frame.t.as_dvec3(), frame.n.as_dvec3())
+                    .transpose();
+            let o = to_local.determinant().signum();
+            let lune = cosine_quarter_spheres_near_lune(n.as_vec3());
+            let mut sum = 0.0;
+            for (k, &l) in lune.iter().enumerate() {
+                assert!(l.is_finite() && l >= 0.0, "{lune:?}");
+                let r = cell_integral_reference(Cell::ROOT.child(k), &to_local, o);
+                worst[j] = worst[j].max((l as f64 - r).abs());
+                sum += l as f64;
+            }
+            assert!((sum - 1.0).abs() < 1e-5, "children sum {sum}");
+        }
+    }
+    eprintln!("worst |lune − exact| by n_x {eps:?}: {worst:?}");
+    assert!(worst[0] < 2e-6, "{worst:?}");
+    // Second order: 10× smaller n_x, ≥ 50× smaller error (above f32 noise).
+    assert!(worst[2] < 5e-6 + worst[4] / 50.0, "{worst:?}");
+    assert!(worst[3] < 3e-5, "{worst:?}");
+}

@@ -35,10 +35,10 @@ use super::children_x16;
 use super::coarse::coarse_children_scalar;
 use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::form_factor;
-use super::level1::level1_children;
+use super::level1::{level1_children, level1_children_x16};
 use super::polygon::{
     MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
-    is_plain_quad_depth, transform_rows, transformed_cached_polygon,
+    transform_rows, transformed_cached_polygon,
 };
 use super::quad::quad_children_scalar;
 use super::sphere_clip::clipped_integral;
@@ -50,50 +50,15 @@ use glam::{DMat3, DVec3, Vec3};
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Which implementation computes the child integrals.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ProductKernel {
-    /// f64, exact horizon clipping, no precomputation, scalar.
-    Naive,
-    /// Sphere-clipping approximation and precomputed diffuse form factors, scalar f32.
-    Optimized,
-    /// `Optimized`, 16 lanes wide.
-    #[default]
-    Simd,
-}
+pub use super::options::{
+    DEFAULT_DEEP_CELL_SIZE, EXACT_CLIP_DEPTH, EXACT_CROSSING_DEPTH, FIRST_PLAIN_QUAD_DEPTH,
+    LtcOptions, ProductKernel,
+};
 
-#[derive(Clone, Copy, Debug)]
-pub struct LtcOptions {
-    /// GGX lobes rougher than this are integrated as cosines (paper: 0.5).
-    pub rough_as_diffuse_above: f32,
-    /// From this θ_o (degrees) on, [`ShadingLtc::prefers_radiance_only`]
-    /// tells the guider to drop the product (paper: 85°).
-    pub grazing_theta_deg: f32,
-    /// A glossy child whose angular size, magnified by the lobe's map,
-    /// falls below this (radians in cosine space) gets density × solid angle
-    /// instead of an f32 edge sum (measured in `tests/ltc_deep_switch.rs`).
-    pub deep_cell_size: f32,
-    /// Diffuse children of nodes shallower than this that straddle the
-    /// horizon are clipped exactly; deeper ones (and all of them when this
-    /// is ≤ 1, level 1 excepted) use the sphere approximation of the
-    /// precomputed form factor. Exact clipping is the accurate default of
-    /// the API; a guider may trade it for speed, since an approximate
-    /// product costs variance, never bias.
-    pub exact_crossing_depth: u32,
-}
-
-/// Children up to this depth are clipped exactly (in f32 by the fast
-/// kernels): the level-1 cells are quarter spheres, far too large for the
-/// sphere approximation, and their 5-vertex polygons are cheap.
-pub const EXACT_CLIP_DEPTH: u32 = 1;
-
-/// Cell size in cosine space below which f32 edge sums are less accurate
-/// than D(centre)·Ω (see `tests/ltc_deep_switch.rs`).
-pub const DEFAULT_DEEP_CELL_SIZE: f32 = 0.088;
-
-/// Children up to this depth that straddle the horizon are clipped exactly
-/// (f64): the sphere approximation is poor for such large polygons.
-pub const EXACT_CROSSING_DEPTH: u32 = 5;
+/// Below this |n_x| the cosine lobe's root children take the lune form,
+/// whose error is ≈ 0.35·n_x² (5.7e-6 at 4e-3, tests/ltc_form_factor.rs),
+/// where the triangle form's is ~1e-7/|n_x|.
+const LUNE_MAX_NORMAL_X: f32 = 4e-3;
 
 /// Where a transformed child polygon lies with respect to the horizon. The
 /// chords are great arcs, so the vertex signs decide it exactly.
@@ -122,17 +87,6 @@ impl HorizonSide {
             HorizonSide::Below
         } else {
             HorizonSide::Crossing
-        }
-    }
-}
-
-impl Default for LtcOptions {
-    fn default() -> Self {
-        LtcOptions {
-            rough_as_diffuse_above: 0.5,
-            grazing_theta_deg: 85.0,
-            deep_cell_size: DEFAULT_DEEP_CELL_SIZE,
-            exact_crossing_depth: EXACT_CROSSING_DEPTH,
         }
     }
 }
@@ -187,11 +141,18 @@ pub struct GlossyLtc {
     /// first depth where a cell (2π/2^d wide), magnified by ‖A‖_F, is
     /// smaller than the deep cell size.
     pub deep_depth: u32,
+    /// Children at this level or deeper are plain chord quads (≥ 2).
+    pub plain_quad_depth: u32,
+    /// Children of nodes shallower than this that straddle the horizon are
+    /// clipped exactly, deeper ones sphere-approximated.
+    pub exact_crossing_depth: u32,
 }
 
 impl GlossyLtc {
-    /// From a world→cosine map (f64) and a weight.
-    pub fn from_map(a: DMat3, weight: f32, deep_cell_size: f32) -> Self {
+    /// From a world→cosine map (f64), a weight, and the options that set
+    /// its switch depths.
+    pub fn from_map(a: DMat3, weight: f32, opts: &LtcOptions) -> Self {
+        let deep_cell_size = opts.deep_cell_size;
         let det = a.determinant();
         let kappa =
             (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
@@ -213,6 +174,10 @@ impl GlossyLtc {
             orientation: if det < 0.0 { -1.0 } else { 1.0 },
             det_abs: det.abs() as f32,
             deep_depth,
+            plain_quad_depth: opts
+                .plain_quad_depth
+                .clamp(EXACT_CLIP_DEPTH + 1, FIRST_PLAIN_QUAD_DEPTH),
+            exact_crossing_depth: opts.exact_crossing_depth,
         }
     }
 
@@ -248,7 +213,7 @@ impl GlossyLtc {
         if depth >= deep_depth {
             return self.children_deep(cell);
         }
-        if is_plain_quad_depth(depth) {
+        if depth >= self.plain_quad_depth {
             let (f, sides) = quad_children_scalar(self, cell);
             self.finish_children(cell, f, sides, None)
         } else {
@@ -275,7 +240,7 @@ impl GlossyLtc {
             match sides[k] {
                 HorizonSide::Above => f.z.max(0.0),
                 HorizonSide::Below => 0.0,
-                HorizonSide::Crossing if cell.depth < EXACT_CROSSING_DEPTH => match exact {
+                HorizonSide::Crossing if cell.depth < self.exact_crossing_depth => match exact {
                     Some(e) => (e[k] * scale).max(0.0),
                     None => {
                         cell_integral_reference(cell.child(k), &self.a64, self.orientation as f64)
@@ -376,6 +341,7 @@ pub struct ShadingLtc {
     pub cos_theta_o: f32,
     grazing_cos: f32,
     exact_crossing_depth: u32,
+    diffuse_centre_depth: u32,
     total: f32,
 }
 
@@ -417,12 +383,14 @@ impl ShadingLtc {
             Vec3::Z
         };
         let cos_theta_o = (wo.z / wo.length().max(1e-30)).clamp(0.0, 1.0);
-        let phi_o = if wo.x == 0.0 && wo.y == 0.0 {
-            0.0
+        // cos φ_o and sin φ_o straight from ω_o (no angle needed); φ_o = 0
+        // at the pole, where the lobe is isotropic about the normal.
+        let rxy = (wo.x as f64).hypot(wo.y as f64);
+        let (sp, cp) = if rxy > 0.0 {
+            (wo.y as f64 / rxy, wo.x as f64 / rxy)
         } else {
-            (wo.y as f64).atan2(wo.x as f64)
+            (0.0, 1.0)
         };
-        let (sp, cp) = phi_o.sin_cos();
         let rot_t = DMat3::from_cols(DVec3::new(cp, -sp, 0.0), DVec3::new(sp, cp, 0.0), DVec3::Z);
         let mut diffuse_weight = sanitize_weight(lobes.diffuse);
         // Placeholder for unused slots (never read past `glossy_count`).
@@ -433,6 +401,8 @@ impl ShadingLtc {
             orientation: 1.0,
             det_abs: 1.0,
             deep_depth: 64,
+            plain_quad_depth: FIRST_PLAIN_QUAD_DEPTH,
+            exact_crossing_depth: EXACT_CROSSING_DEPTH,
         }; 1];
         let mut glossy_count = 0;
         for lobe in lobes.ggx.iter().take(lobes.ggx_count.min(1)) {
@@ -457,7 +427,7 @@ impl ShadingLtc {
             if !(a.is_finite() && weight > 0.0) {
                 continue;
             }
-            glossy[glossy_count] = GlossyLtc::from_map(a, weight, opts.deep_cell_size);
+            glossy[glossy_count] = GlossyLtc::from_map(a, weight, opts);
             glossy_count += 1;
         }
         let total = diffuse_weight + glossy[..glossy_count].iter().map(|g| g.weight).sum::<f32>();
@@ -483,6 +453,7 @@ impl ShadingLtc {
             cos_theta_o,
             grazing_cos: opts.grazing_theta_deg.to_radians().cos(),
             exact_crossing_depth: opts.exact_crossing_depth,
+            diffuse_centre_depth: opts.diffuse_centre_depth.max(EXACT_CLIP_DEPTH + 1),
             total: guard(total),
         }
     }
@@ -517,6 +488,8 @@ impl ShadingLtc {
         if self.diffuse_weight > 0.0 {
             let d = match kernel {
                 ProductKernel::Naive => self.diffuse_reference(cell),
+                _ if cell.depth < EXACT_CLIP_DEPTH => self.diffuse_root_children(kernel),
+                _ if cell.depth + 1 >= self.diffuse_centre_depth => self.diffuse_centres(cell),
                 ProductKernel::Simd if cell.depth >= EXACT_CROSSING_DEPTH => {
                     children_x16::diffuse_children_x16(self.normal, cell)
                 }
@@ -539,6 +512,36 @@ impl ShadingLtc {
         guard4(out)
     }
 
+    /// Cosine-lobe integrals over the root's children (quarter spheres),
+    /// exact to f32 accuracy: the triangle form where the normal is well
+    /// away from the y-z plane, the lune form where it (nearly) lies in it —
+    /// every normal of an axis-aligned wall or floor does, and there the
+    /// triangle form would fall back to clipping four polygons — and exact
+    /// clipping in between.
+    fn diffuse_root_children(&self, kernel: ProductKernel) -> [f32; 4] {
+        if self.normal.x.abs() < LUNE_MAX_NORMAL_X {
+            return form_factor::cosine_quarter_spheres_near_lune(self.normal);
+        }
+        let (rows, o) = (&self.diffuse_rows, self.diffuse_orientation);
+        let triangles = match kernel {
+            ProductKernel::Simd => level1_children_x16(rows, o),
+            _ => level1_children(rows, o),
+        };
+        triangles.unwrap_or_else(|| exact_children_f32(rows, o, Cell::ROOT))
+    }
+
+    /// n·ω⁺/π at the 4 children's centres × their solid angle.
+    fn diffuse_centres(&self, cell: Cell) -> [f32; 4] {
+        let omega = cell_solid_angle(cell.depth + 1) / PI;
+        let (z, r, s, c) = deep_centres(cell);
+        let n = self.normal;
+        std::array::from_fn(|k| {
+            let (iu, iv) = (k & 1, k >> 1);
+            let w = Vec3::new(r[iu] * c[iv], r[iu] * s[iv], z[iu]);
+            n.dot(w).max(0.0) * omega
+        })
+    }
+
     /// Cosine-lobe integrals by exact clipping in f64.
     pub fn diffuse_reference(&self, cell: Cell) -> [f32; 4] {
         let o = self.diffuse_map.determinant().signum();
@@ -549,9 +552,7 @@ impl ShadingLtc {
     /// above the horizon, sphere-clipped across it.
     pub fn diffuse_form_factors(&self, cell: Cell) -> [f32; 4] {
         if cell.depth < EXACT_CLIP_DEPTH {
-            return level1_children(&self.diffuse_rows, self.diffuse_orientation).unwrap_or_else(
-                || exact_children_f32(&self.diffuse_rows, self.diffuse_orientation, cell),
-            );
+            return self.diffuse_root_children(ProductKernel::Optimized);
         }
         if cell.depth < self.exact_crossing_depth {
             // Large cells: classify by the polygon, clip straddlers exactly.

@@ -16,7 +16,7 @@ use super::children::{EXACT_CLIP_DEPTH, GlossyLtc, child_centres};
 use super::coarse_x16::coarse_children_x16;
 use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::level1::level1_children_x16;
-use super::polygon::{cached_cell_polygon, is_plain_quad_depth};
+use super::polygon::cached_cell_polygon;
 use super::quad_x16::quad_children_x16;
 use super::simd::{
     edge_vectors, heights_and_radii, load16, rotated_sincos, sincos_turns, splat, transform,
@@ -188,7 +188,7 @@ pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     if depth >= deep_depth {
         return children_deep_x16(g, cell);
     }
-    if is_plain_quad_depth(depth) {
+    if depth >= g.plain_quad_depth {
         quad_children_x16(g, cell)
     } else {
         coarse_children_x16(g, cell)

@@ -115,3 +115,41 @@ pub fn children_form_factors_f32(cell: Cell) -> [Vec3; 4] {
         )
     })
 }
+
+/// The cosine lobe's integrals over the root's children (quarter spheres
+/// {s_z·z ≥ 0} ∩ {s_y·y ≥ 0}, in [`Cell::child`] order) when the normal n
+/// is (nearly) perpendicular to x̂, where the three great circles bounding a
+/// clipped child nearly meet at ±x̂ and the triangle form of
+/// [`super::level1`] loses its accuracy.
+///
+/// For n_x = 0 the clipped child is a lune around the x axis: with ψ the
+/// angle about x̂ and m = (n_y, n_z)/|(n_y, n_z)|, ω = (cos t, sin t·cos ψ,
+/// sin t·sin ψ) and ∫_0^π sin² t dt = π/2, the integral over the quadrant
+/// [a, b] of ψ is ½∫_a^b max(0, cos(ψ − ψ_m)) dψ = ½·max(0, S(b) − S(a)),
+/// S the antiderivative sin(ψ − ψ_m) saturated at ±1 (the max takes care
+/// of a quadrant wrapping through the back). The quarter spheres are
+/// symmetric under x ↦ −x, so the first-order term in n_x vanishes and the
+/// error for a unit normal is O(n_x²) (measured in the tests).
+pub fn cosine_quarter_spheres_near_lune(n: Vec3) -> [f32; 4] {
+    let len = (n.y * n.y + n.z * n.z).sqrt();
+    if !(len > 0.0) {
+        return [0.0; 4];
+    }
+    let (my, mz) = (n.y / len, n.z / len);
+    // S at a quadrant boundary e (a unit vector of the y-z plane).
+    let s = |ey: f32, ez: f32| {
+        let sin = ez * my - ey * mz;
+        if ey * my + ez * mz >= 0.0 {
+            sin
+        } else if sin >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        }
+    };
+    // Quadrant boundaries, counter-clockwise about x̂: +y, +z, −y, −z.
+    let (py, pz, ny, nz) = (s(1.0, 0.0), s(0.0, 1.0), s(-1.0, 0.0), s(0.0, -1.0));
+    let part = |a: f32, b: f32| 0.5 * (b - a).max(0.0);
+    // Child k: bit 0 set = upper half (s_z = +1), bit 1 set = y < 0.
+    [part(nz, py), part(py, pz), part(ny, nz), part(pz, ny)]
+}

@@ -38,6 +38,7 @@ pub mod form_factor;
 pub mod ggx;
 pub mod level1;
 pub mod lobe;
+pub mod options;
 pub mod polygon;
 pub mod quad;
 pub mod quad_x16;
