@@ -460,5 +460,6 @@ fn cmd_info(path: &Path) -> Result<(), String> {
             .unwrap_or_else(|| "unlimited".into())
     );
     println!("bounds     {:?} .. {:?}", scene.bounds.0, scene.bounds.1);
+    println!("bvh        {}", scene.accel.summary());
     Ok(())
 }

@@ -68,6 +68,11 @@ impl Tri8 {
         self.slot_bit.iter().fold(0, |m, &b| m | b as u32)
     }
 
+    /// Lanes holding a triangle.
+    pub(super) fn slots_count(&self) -> usize {
+        self.slot_bit.iter().filter(|&&b| b != 0).count()
+    }
+
     /// Lanes whose child slot is in `slots`.
     #[inline(always)]
     pub(super) fn active(&self, slots: u32) -> u32 {

@@ -376,6 +376,22 @@ impl Accel {
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }
+
+    /// Node and packet counts with their memory, for `info`: traversal
+    /// speed on large scenes follows how much of this stays in cache.
+    pub fn summary(&self) -> String {
+        let tris: usize = self.packets.iter().map(|p| p.slots_count()).sum();
+        let mib = |n: usize, size: usize| (n * size) as f64 / (1 << 20) as f64;
+        format!(
+            "{} nodes ({:.1} MiB), {} triangle packets ({:.1} MiB, {:.2} triangles each), {} spheres",
+            self.nodes.len(),
+            mib(self.nodes.len(), size_of::<Node8>()),
+            self.packets.len(),
+            mib(self.packets.len(), size_of::<Tri8>()),
+            tris as f64 / self.packets.len().max(1) as f64,
+            self.spheres.len()
+        )
+    }
 }
 
 /// 1/d per axis, with near-zero components replaced by ±ε·10⁻⁶ so the

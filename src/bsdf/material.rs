@@ -217,4 +217,51 @@ impl Material {
             two_sided: self.two_sided,
         }
     }
+
+    /// The texture [`at`](Self::at) will read, if any.
+    fn texture(&self) -> Option<&Texture> {
+        match &self.kind {
+            MaterialKind::Diffuse { reflectance: t }
+            | MaterialKind::RoughConductor {
+                specular_reflectance: t,
+                ..
+            }
+            | MaterialKind::Conductor {
+                specular_reflectance: t,
+                ..
+            }
+            | MaterialKind::RoughPlastic {
+                diffuse_reflectance: t,
+                ..
+            }
+            | MaterialKind::Plastic {
+                diffuse_reflectance: t,
+                ..
+            } => Some(t),
+            MaterialKind::Dielectric { .. } | MaterialKind::ThinDielectric { .. } => None,
+        }
+    }
+
+    /// Starts loading the texels [`at`](Self::at) will read at `uv`.
+    /// Texel fetches from large textures miss the cache; the path loop
+    /// issues this as soon as a hit is known and does independent work
+    /// (light sampling, the shadow ray) before the lookup.
+    #[inline]
+    pub fn prefetch(&self, uv: Vec2) {
+        if let Some(t) = self.texture() {
+            t.prefetch(uv);
+        }
+    }
+
+    /// [`Bsdf::has_smooth_lobes_only`] of every `at(uv)`, known without a
+    /// texture lookup.
+    #[inline]
+    pub fn has_smooth_lobes_only(&self) -> bool {
+        matches!(
+            self.kind,
+            MaterialKind::Conductor { .. }
+                | MaterialKind::Dielectric { .. }
+                | MaterialKind::ThinDielectric { .. }
+        )
+    }
 }

@@ -5,9 +5,10 @@
 
 use super::guide::{Guide, GuideVertex, PathVertex, VertexContext};
 use super::stats::RenderCounters;
+use crate::emitter::LightSample;
 use crate::math::{Spectrum, is_finite3};
 use crate::sampling::{Rng, power_heuristic};
-use crate::scene::Scene;
+use crate::scene::{Interaction, Scene};
 use glam::Vec3;
 
 const ADRRS: crate::guiding::adrrs::Adrrs = crate::guiding::adrrs::Adrrs { s: 5.0 };
@@ -63,6 +64,48 @@ pub fn spawn_origin(scene: &Scene, p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     }
 }
 
+/// A light sample with its direction in the shading frame and, once the
+/// shadow ray has been traced, whether it reached the light.
+struct NeeSample {
+    ls: LightSample,
+    wi: Vec3,
+    visible: Option<bool>,
+}
+
+/// Draws the next-event sample at `it`. With `trace_now` its shadow ray is
+/// traced at once where the BSDF can reflect (wo and wi on one side of the
+/// shading surface: every BSDF with a non-delta lobe reflects only), so it
+/// overlaps the texel fetches of the BSDF lookup that follows; the rare
+/// sample the BSDF then rejects wasted a ray, not the image. Always
+/// inlined: returned through memory, the sample was reloaded in wider
+/// pieces than it was stored in, a store-forwarding stall per vertex.
+#[inline(always)]
+fn nee_sample(
+    scene: &Scene,
+    it: &Interaction,
+    wo: Vec3,
+    rng: &mut Rng,
+    counters: &mut RenderCounters,
+    trace_now: bool,
+) -> Option<NeeSample> {
+    let u_sel = rng.next_f32();
+    let u_light = rng.next_2d();
+    let origin = |dir| spawn_origin(scene, it.p, it.ng, dir);
+    let ls = scene.lights.sample(it.p, origin, u_sel, u_light)?;
+    let wi = it.frame.to_local(ls.wi);
+    let visible = (trace_now && wi.z * wo.z > 0.0).then(|| shadow_ray_clear(scene, &ls, counters));
+    Some(NeeSample { ls, wi, visible })
+}
+
+/// True when nothing blocks the shadow ray of `ls`.
+#[inline]
+fn shadow_ray_clear(scene: &Scene, ls: &LightSample, counters: &mut RenderCounters) -> bool {
+    // The sample is aimed from the offset origin at the sampled point itself.
+    let tmax = ls.dist * (1.0 - 1e-4);
+    counters.shadow_rays += 1;
+    tmax > 0.0 && !scene.occluded_except(ls.origin, ls.wi, tmax, ls.prim)
+}
+
 /// Estimates the radiance arriving at the camera along (o, d).
 #[allow(clippy::too_many_arguments)]
 pub fn trace_path<G: Guide>(
@@ -115,6 +158,11 @@ pub fn trace_path<G: Guide>(
             break;
         };
 
+        // The texels of the hit's material load while the emission, the
+        // light sample and the shadow ray are computed.
+        let material = scene.material_of(&it);
+        material.prefetch(it.uv);
+
         // Emission of the surface we hit.
         if let Some(light) = scene.shapes[it.shape as usize].light {
             let le = scene.lights.emitted(light, it.frame.n, -d);
@@ -131,9 +179,18 @@ pub fn trace_path<G: Guide>(
             break;
         }
 
-        let bsdf = scene.material_of(&it).at(it.uv);
         let wo = it.frame.to_local(-d);
-        let smooth_only = bsdf.has_smooth_lobes_only();
+        let smooth_only = material.has_smooth_lobes_only();
+        let nee = settings.nee && !smooth_only && !scene.lights.is_empty();
+        // Next-event sample and shadow ray ahead of the texture lookup (the
+        // random numbers are drawn in the same order as below; ADRRS draws
+        // its roulette number first, so it keeps the later order).
+        let mut early_nee = None;
+        if nee && settings.roulette != RouletteMode::Adrrs {
+            early_nee = Some(nee_sample(scene, &it, wo, rng, counters, true));
+        }
+        let bsdf = material.at(it.uv);
+        debug_assert_eq!(bsdf.has_smooth_lobes_only(), smooth_only);
 
         // Next-event estimation at vertices with a non-delta component.
         let mut guide_vertex = None;
@@ -168,32 +225,26 @@ pub fn trace_path<G: Guide>(
                 }
             }
         }
-        if settings.nee && !smooth_only && !scene.lights.is_empty() {
-            let u_sel = rng.next_f32();
-            let u_light = rng.next_2d();
-            let origin = |dir| spawn_origin(scene, it.p, it.ng, dir);
-            if let Some(ls) = scene.lights.sample(it.p, origin, u_sel, u_light) {
-                let wi = it.frame.to_local(ls.wi);
+        if nee {
+            let sample =
+                early_nee.unwrap_or_else(|| nee_sample(scene, &it, wo, rng, counters, false));
+            if let Some(NeeSample { ls, wi, visible }) = sample {
                 // One evaluation for both: rough plastic computes them together.
                 let (f, pdf_bsdf) = bsdf.eval_pdf(wo, wi);
-                if f != Spectrum::ZERO {
-                    // The sample is aimed from the offset origin at the
-                    // sampled point itself.
-                    let tmax = ls.dist * (1.0 - 1e-4);
-                    counters.shadow_rays += 1;
-                    if tmax > 0.0 && !scene.occluded_except(ls.origin, ls.wi, tmax, ls.prim) {
-                        let mut pdf_scatter = pdf_bsdf;
-                        if let Some(g) = guide_vertex.as_mut() {
-                            let a = g.bsdf_fraction();
-                            pdf_scatter = a * pdf_scatter + (1.0 - a) * g.pdf(ls.wi);
-                        }
-                        let w = power_heuristic(ls.pdf, pdf_scatter);
-                        add(
-                            throughput * f * ls.radiance * (w / ls.pdf),
-                            scratch,
-                            &mut radiance,
-                        );
+                if f != Spectrum::ZERO
+                    && visible.unwrap_or_else(|| shadow_ray_clear(scene, &ls, counters))
+                {
+                    let mut pdf_scatter = pdf_bsdf;
+                    if let Some(g) = guide_vertex.as_mut() {
+                        let a = g.bsdf_fraction();
+                        pdf_scatter = a * pdf_scatter + (1.0 - a) * g.pdf(ls.wi);
                     }
+                    let w = power_heuristic(ls.pdf, pdf_scatter);
+                    add(
+                        throughput * f * ls.radiance * (w / ls.pdf),
+                        scratch,
+                        &mut radiance,
+                    );
                 }
             }
         }

@@ -72,6 +72,20 @@ impl Bitmap8 {
         (0..self.height).flat_map(move |y| (0..self.width).map(move |x| self.get(x, y)))
     }
 
+    /// Prefetches the tiles of the bilinear footprint at `uv` (one to
+    /// four cache lines) without waiting for them.
+    #[inline]
+    pub fn prefetch(&self, uv: Vec2) {
+        let Some(([x0, x1, y0, y1], _, _)) = super::bilinear_footprint(self.width, self.height, uv)
+        else {
+            return;
+        };
+        for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
+            let tile = tile_index(self.tiles_x, x, y).0;
+            prefetch_line(&self.tiles[tile]);
+        }
+    }
+
     /// The lookup of [`super::bilinear_periodic`].
     #[inline]
     pub fn bilinear_periodic(&self, uv: Vec2) -> Spectrum {
@@ -90,6 +104,18 @@ impl Bitmap8 {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Tile([u32; 16]);
+
+#[inline(always)]
+fn prefetch_line<T>(p: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint; it never faults and reads nothing.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>(p as *const T as *const i8);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
 
 /// (tile, index in the tile) of texel (x, y) with `tiles_x` tiles per row.
 #[inline(always)]

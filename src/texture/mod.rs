@@ -68,6 +68,15 @@ impl Texture {
         }
     }
 
+    /// Starts loading the texels `eval(uv)` reads (see
+    /// [`Bitmap8::prefetch`]); float bitmaps are rare and left alone.
+    #[inline]
+    pub fn prefetch(&self, uv: Vec2) {
+        if let Texture::Bitmap8(img) = self {
+            img.prefetch(uv);
+        }
+    }
+
     /// A spectrum that bounds the texture from above per channel; used by the
     /// per-scene plan and by lobe weights where a texture lookup is not wanted.
     pub fn max_value(&self) -> Spectrum {
