@@ -124,6 +124,29 @@ fn guard(v: f32) -> f32 {
     }
 }
 
+/// ⌈log₂ x⌉ from the bits (a libm log2 was a twentieth of a shading
+/// point's set-up); 64 for anything not finite and positive, which keeps
+/// the deep switch off.
+fn ceil_log2(x: f64) -> i64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 64;
+    }
+    let (m, e) = {
+        // Scale subnormals into the normal range first.
+        let (y, bias) = if x < f64::MIN_POSITIVE {
+            (x * 2f64.powi(64), 64)
+        } else {
+            (x, 0)
+        };
+        let b = y.to_bits();
+        (
+            b & ((1u64 << 52) - 1),
+            ((b >> 52) & 0x7ff) as i64 - 1023 - bias,
+        )
+    };
+    if m == 0 { e } else { e + 1 }
+}
+
 /// One glossy lobe, ready for cells: world → cosine-space map and weight.
 #[derive(Clone, Copy, Debug)]
 pub struct GlossyLtc {
@@ -157,14 +180,9 @@ impl GlossyLtc {
         let kappa =
             (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
                 .sqrt();
-        let d = (2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64)
-            .log2()
-            .ceil();
-        let deep_depth = if d.is_finite() {
-            d.clamp(1.0, 64.0) as u32
-        } else {
-            64
-        };
+        let deep_depth =
+            ceil_log2(2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64)
+                .clamp(1, 64) as u32;
         let r = a.transpose();
         let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
         GlossyLtc {
@@ -385,7 +403,9 @@ impl ShadingLtc {
         let cos_theta_o = (wo.z / wo.length().max(1e-30)).clamp(0.0, 1.0);
         // cos φ_o and sin φ_o straight from ω_o (no angle needed); φ_o = 0
         // at the pole, where the lobe is isotropic about the normal.
-        let rxy = (wo.x as f64).hypot(wo.y as f64);
+        let rxy = (wo.x as f64)
+            .mul_add(wo.x as f64, wo.y as f64 * wo.y as f64)
+            .sqrt();
         let (sp, cp) = if rxy > 0.0 {
             (wo.y as f64 / rxy, wo.x as f64 / rxy)
         } else {
@@ -422,7 +442,7 @@ impl ShadingLtc {
                 diffuse_weight += weight;
                 continue;
             }
-            let m_inv = entry.params().matrix().inverse();
+            let m_inv = entry.params().inverse_matrix();
             let a = m_inv * rot_t * to_local;
             if !(a.is_finite() && weight > 0.0) {
                 continue;
@@ -601,5 +621,20 @@ impl ShadingLtc {
             form_factor::children_form_factors_f32(cell)
         };
         f.map(|f| clipped_integral(f.dot(self.normal), f.length_squared()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn ceil_log2_matches_libm() {
+        for x in [
+            1e-300, 1e-310, 0.3, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 1e10, 7.999,
+        ] {
+            assert_eq!(super::ceil_log2(x), x.log2().ceil() as i64, "{x}");
+        }
+        for x in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(super::ceil_log2(x), 64);
+        }
     }
 }
