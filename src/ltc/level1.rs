@@ -17,9 +17,17 @@
 //! three great circles nearly meet at ±x̂ (the clipped cell tends to a lune)
 //! and the triangle degenerates; those lobes return `None` and the caller
 //! clips the polygons.
+//!
+//! The triangles are large (edges up to nearly π), and this kernel runs
+//! once per descent with nothing to overlap it, so its cost is the latency
+//! of one edge term. Each term is therefore taken from the unit vertices,
+//! as in the quad kernels: with w = 1/(|a||b|) (two `rsqrt`s, no √ and no
+//! division), θ·(a×b)/|a×b| = (θ/sin θ)(w·a·b)·w·(a×b), θ/sin θ being the
+//! polynomial of [`super::fast_math::theta_over_sin`].
 
-use super::polygon::{edge_vector, transform_rows};
-use super::simd::{edge_vectors, permute, splat, transform};
+use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin, theta_over_sin_x16};
+use super::polygon::transform_rows;
+use super::simd::{permute, splat, transform};
 use glam::Vec3;
 use wide::f32x16;
 
@@ -61,6 +69,30 @@ fn scales(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     }))
 }
 
+/// 1/|v| of a mapped vertex (finite for v = 0).
+#[inline(always)]
+fn inv_length(v: Vec3) -> f32 {
+    rsqrt(
+        v.z.mul_add(v.z, v.y.mul_add(v.y, v.x * v.x))
+            .max(RSQRT_FLOOR),
+    )
+}
+
+/// (θ·(a×b)/|a×b|)_z of the edge between mapped vertices a and b, given
+/// 1/|a| and 1/|b|: exactly antisymmetric (no fused cross products) and 0
+/// for a degenerate edge.
+#[inline(always)]
+fn edge_term_z(a: Vec3, b: Vec3, ia: f32, ib: f32) -> f32 {
+    let cz = a.x * b.y - a.y * b.x;
+    let w = ia * ib;
+    let d = a.z.mul_add(b.z, a.y.mul_add(b.y, a.x * b.x)) * w;
+    let k = theta_over_sin(d, || {
+        let (cx, cy) = (a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z);
+        cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w)
+    });
+    (cz * w) * k
+}
+
 /// Exactly clipped integrals of the root's children, scalar.
 pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
@@ -68,18 +100,19 @@ pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4
     Some(
         std::array::from_fn(|k| {
             let t = triangle(k, h).map(|u| transform_rows(rows, u));
-            let e0 = edge_vector(t[0], t[1]).z;
-            let e1 = edge_vector(t[1], t[2]).z;
-            let e2 = edge_vector(t[2], t[0]).z;
+            let i = t.map(inv_length);
+            let e0 = edge_term_z(t[0], t[1], i[0], i[1]);
+            let e1 = edge_term_z(t[1], t[2], i[1], i[2]);
+            let e2 = edge_term_z(t[2], t[0], i[2], i[0]);
             ((e0 + e1) + e2) * scale[k]
         })
         .map(|f: f32| f.max(0.0)),
     )
 }
 
-/// Lane 4k + e holds edge e of child k's triangle (e = 3 is an empty edge
-/// from 0 to 0, whose term is exactly 0). `END` picks the edge end.
-const fn lane_coefficients(end: bool) -> [[f32; 16]; 5] {
+/// Lane 4k + e holds the start of edge e of child k's triangle, vertex e
+/// (e = 3 is an empty edge from 0 to 0, whose term is exactly 0).
+const fn lane_coefficients() -> [[f32; 16]; 5] {
     // Rows: x = C0·h_z + C1·h_y + C2, y = C3·h_x, z = C4·h_x.
     let mut c = [[0.0f32; 16]; 5];
     let mut k = 0;
@@ -88,9 +121,8 @@ const fn lane_coefficients(end: bool) -> [[f32; 16]; 5] {
         let sy = if k & 2 == 0 { 1.0 } else { -1.0 };
         let mut e = 0;
         while e < 3 {
-            let v = if end { (e + 1) % 3 } else { e };
             let l = 4 * k + e;
-            match v {
+            match e {
                 0 => {
                     c[0][l] = sy;
                     c[4][l] = -sy;
@@ -107,8 +139,7 @@ const fn lane_coefficients(end: bool) -> [[f32; 16]; 5] {
     }
     c
 }
-const START: [[f32; 16]; 5] = lane_coefficients(false);
-const END: [[f32; 16]; 5] = lane_coefficients(true);
+const START: [[f32; 16]; 5] = lane_coefficients();
 
 /// The triangle vertices of every lane, mapped by `rows`. Each coordinate
 /// has one non-zero term, ±h_i or ±1, so it is exact, as in [`triangle`].
@@ -119,6 +150,9 @@ fn lane_vertices(rows: &[[f32; 3]; 3], c: &[[f32; 16]; 5], h: Vec3) -> [f32x16; 
     transform(rows, x, f(3) * splat(h.x), f(4) * splat(h.x))
 }
 
+/// Lane 4k + e → lane of the next vertex of child k's triangle (lane 3,
+/// the empty edge, stays put).
+const NEXT: [i32; 16] = [1, 2, 0, 3, 5, 6, 4, 7, 9, 10, 8, 11, 13, 14, 12, 15];
 const SWAP1: [i32; 16] = [1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14];
 const SWAP2: [i32; 16] = [2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13];
 
@@ -127,8 +161,21 @@ pub fn level1_children_x16(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f3
     let scale = scales(rows, orientation)?;
     let h = Vec3::from(rows[2]);
     let a = lane_vertices(rows, &START, h);
-    let b = lane_vertices(rows, &END, h);
-    let ez = edge_vectors(a, b)[2];
+    let b = a.map(|v| permute(v, &NEXT));
+    let ia = rsqrt_x16(
+        a[2].mul_add(a[2], a[1].mul_add(a[1], a[0] * a[0]))
+            .fast_max(splat(RSQRT_FLOOR)),
+    );
+    // The operations of `edge_term_z`, lane by lane.
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let w = ia * permute(ia, &NEXT);
+    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0])) * w;
+    let k = theta_over_sin_x16(d, || {
+        let cx = a[1] * b[2] - a[2] * b[1];
+        let cy = a[2] * b[0] - a[0] * b[2];
+        cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w)
+    });
+    let ez = (cz * w) * k;
     let y = ez + permute(ez, &SWAP1);
     let s = (y + permute(y, &SWAP2)).to_array();
     Some(std::array::from_fn(|k| (s[4 * k] * scale[k]).max(0.0)))
