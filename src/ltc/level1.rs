@@ -27,9 +27,9 @@
 
 use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin, theta_over_sin_x16};
 use super::polygon::transform_rows;
-use super::simd::{permute, splat, transform};
+use super::simd::{block_order, block_sums, shuffle_blocks, splat, transform};
 use glam::Vec3;
-use wide::f32x16;
+use wide::{f32x4, f32x16};
 
 /// Smallest |h_x|/|h| handled as triangles: below it the nearly antipodal
 /// vertices cost up to ~1e-7/(|h_x|/|h|) of relative accuracy.
@@ -59,7 +59,7 @@ fn triangle(k: usize, h: Vec3) -> [Vec3; 3] {
 #[inline(always)]
 fn scales(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let h = Vec3::from(rows[2]);
-    if !(h.x.abs() >= MIN_HX * h.length()) {
+    if !(h.x * h.x >= (MIN_HX * MIN_HX) * h.length_squared()) {
         return None;
     }
     Some(std::array::from_fn(|k| {
@@ -110,8 +110,26 @@ pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4
     )
 }
 
-/// Lane 4k + e holds the start of edge e of child k's triangle, vertex e
-/// (e = 3 is an empty edge from 0 to 0, whose term is exactly 0).
+/// The 128-bit block holding edge e of every child (lane k of it), as in
+/// [`super::quad_x16`]: the per-child sums (e0 + e1) + (e2 + e3) are then
+/// two block additions. Edge 3 is empty (from 0 to 0, a term of exactly 0),
+/// so the sums are the scalar (e0 + e1) + e2.
+const BLOCK_OF_EDGE: [usize; 4] = [0, 2, 1, 3];
+
+/// Block order taking each edge's start (vertex e) to its end (vertex
+/// e + 1 mod 3); the empty edge stays put.
+const NEXT: i32 = block_order({
+    let mut t = [3usize; 4];
+    let mut e = 0;
+    while e < 3 {
+        t[BLOCK_OF_EDGE[e]] = BLOCK_OF_EDGE[(e + 1) % 3];
+        e += 1;
+    }
+    t
+});
+
+/// Coefficients of the start of edge e of child k's triangle, vertex e, in
+/// lane k of block `BLOCK_OF_EDGE[e]`.
 const fn lane_coefficients() -> [[f32; 16]; 5] {
     // Rows: x = C0·h_z + C1·h_y + C2, y = C3·h_x, z = C4·h_x.
     let mut c = [[0.0f32; 16]; 5];
@@ -121,7 +139,7 @@ const fn lane_coefficients() -> [[f32; 16]; 5] {
         let sy = if k & 2 == 0 { 1.0 } else { -1.0 };
         let mut e = 0;
         while e < 3 {
-            let l = 4 * k + e;
+            let l = 4 * BLOCK_OF_EDGE[e] + k;
             match e {
                 0 => {
                     c[0][l] = sy;
@@ -150,25 +168,19 @@ fn lane_vertices(rows: &[[f32; 3]; 3], c: &[[f32; 16]; 5], h: Vec3) -> [f32x16; 
     transform(rows, x, f(3) * splat(h.x), f(4) * splat(h.x))
 }
 
-/// Lane 4k + e → lane of the next vertex of child k's triangle (lane 3,
-/// the empty edge, stays put).
-const NEXT: [i32; 16] = [1, 2, 0, 3, 5, 6, 4, 7, 9, 10, 8, 11, 13, 14, 12, 15];
-const SWAP1: [i32; 16] = [1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14];
-const SWAP2: [i32; 16] = [2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13];
-
 /// [`level1_children`] with the 12 edges in one f32x16.
 pub fn level1_children_x16(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
     let h = Vec3::from(rows[2]);
     let a = lane_vertices(rows, &START, h);
-    let b = a.map(|v| permute(v, &NEXT));
+    let b = a.map(shuffle_blocks::<NEXT>);
     let ia = rsqrt_x16(
         a[2].mul_add(a[2], a[1].mul_add(a[1], a[0] * a[0]))
             .fast_max(splat(RSQRT_FLOOR)),
     );
     // The operations of `edge_term_z`, lane by lane.
     let cz = a[0] * b[1] - a[1] * b[0];
-    let w = ia * permute(ia, &NEXT);
+    let w = ia * shuffle_blocks::<NEXT>(ia);
     let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0])) * w;
     let k = theta_over_sin_x16(d, || {
         let cx = a[1] * b[2] - a[2] * b[1];
@@ -176,7 +188,6 @@ pub fn level1_children_x16(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f3
         cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w)
     });
     let ez = (cz * w) * k;
-    let y = ez + permute(ez, &SWAP1);
-    let s = (y + permute(y, &SWAP2)).to_array();
-    Some(std::array::from_fn(|k| (s[4 * k] * scale[k]).max(0.0)))
+    let f = block_sums(ez) * f32x4::from(scale);
+    Some(f.fast_max(f32x4::splat(0.0)).to_array())
 }
