@@ -25,7 +25,7 @@
 //! division), θ·(a×b)/|a×b| = (θ/sin θ)(w·a·b)·w·(a×b), θ/sin θ being the
 //! polynomial of [`super::fast_math::theta_over_sin`].
 
-use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin, theta_over_sin_x16};
+use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin_poly, theta_over_sin_x16};
 use super::polygon::transform_rows;
 use super::simd::{block_order, block_sums, shuffle_blocks, splat, transform};
 use glam::Vec3;
@@ -78,32 +78,52 @@ fn inv_length(v: Vec3) -> f32 {
     )
 }
 
-/// (θ·(a×b)/|a×b|)_z of the edge between mapped vertices a and b, given
-/// 1/|a| and 1/|b|: exactly antisymmetric (no fused cross products) and 0
-/// for a degenerate edge.
+/// An edge between mapped vertices a and b, given 1/|a| and 1/|b|, as
+/// [`super::quad::unit_edge`] takes it: w·(a×b)_z (no fused products, so
+/// exactly antisymmetric), the cosine w·(a·b) and both values of
+/// [`super::fast_math::theta_over_sin`] at it, for the edge and for the
+/// edge to −b.
 #[inline(always)]
-fn edge_term_z(a: Vec3, b: Vec3, ia: f32, ib: f32) -> f32 {
-    let cz = a.x * b.y - a.y * b.x;
+fn base_edge(a: Vec3, b: Vec3, ia: f32, ib: f32) -> [f32; 4] {
     let w = ia * ib;
+    let cz = a.x * b.y - a.y * b.x;
     let d = a.z.mul_add(b.z, a.y.mul_add(b.y, a.x * b.x)) * w;
-    let k = theta_over_sin(d, || {
-        let (cx, cy) = (a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z);
-        cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w)
-    });
-    (cz * w) * k
+    let (cx, cy) = (a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z);
+    let q = cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w);
+    let p = theta_over_sin_poly(d.abs());
+    let far = std::f32::consts::PI.mul_add(rsqrt(q.max(RSQRT_FLOOR)), -p);
+    [cz * w, d, p, far]
+}
+
+/// (θ·(a×b)/|a×b|)_z of the edge (s·a, ±b) from its [`base_edge`] (a, b),
+/// s = ±1 the product of the endpoints' signs: a sign flips the cross
+/// product and the cosine exactly, so this is the term the lanes of
+/// [`level1_children_x16`] compute from the signed vertices.
+#[inline(always)]
+fn signed_term([czw, d, p, far]: [f32; 4], s: f32) -> f32 {
+    (czw * s) * if d * s < 0.0 { far } else { p }
 }
 
 /// Exactly clipped integrals of the root's children, scalar.
 pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
     let h = Vec3::from(rows[2]);
+    // Child k's vertices are those of child 1 (s_z = s_y = 1) times s_y,
+    // s_z and s_z·s_y, and signs pass exactly through the map, the lengths
+    // and the edge terms: 3 vertices and 3 edges serve the 4 children.
+    let t = triangle(1, h).map(|u| transform_rows(rows, u));
+    let i = t.map(inv_length);
+    let e = [
+        base_edge(t[0], t[1], i[0], i[1]),
+        base_edge(t[1], t[2], i[1], i[2]),
+        base_edge(t[2], t[0], i[2], i[0]),
+    ];
     Some(
         std::array::from_fn(|k| {
-            let t = triangle(k, h).map(|u| transform_rows(rows, u));
-            let i = t.map(inv_length);
-            let e0 = edge_term_z(t[0], t[1], i[0], i[1]);
-            let e1 = edge_term_z(t[1], t[2], i[1], i[2]);
-            let e2 = edge_term_z(t[2], t[0], i[2], i[0]);
+            let (sz, sy) = child_signs(k);
+            let e0 = signed_term(e[0], sy * sz);
+            let e1 = signed_term(e[1], sz * (sz * sy));
+            let e2 = signed_term(e[2], (sz * sy) * sy);
             ((e0 + e1) + e2) * scale[k]
         })
         .map(|f: f32| f.max(0.0)),
