@@ -95,7 +95,7 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let col = |i: usize| splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
     let t = [0, 1, 2].map(|i| r.mul_add(col(i), splat(rw[i][2]) * z));
     let a = normalise(t);
-    let b = a.map(|v| shuffle_blocks::<END_BLOCKS>(v));
+    let b = a.map(shuffle_blocks::<END_BLOCKS>);
     (a, b)
 }
 
