@@ -230,7 +230,7 @@ pub fn cross_xy(a: &[f32x16; 3], b: &[f32x16; 3]) -> (f32x16, f32x16) {
 
 /// (a×b)_z and θ/sin θ of [`unit_edges`], without forming (a×b)_x, y
 /// unless some lane is obtuse: the plain-quad kernel needs only F_z when
-/// no child straddles the horizon, and skipping 6 of its ~95 vector
+/// no child straddles the horizon, and skipping 6 of its ~80 vector
 /// operations shows in its throughput.
 #[inline(always)]
 pub fn unit_edges_z(a: &[f32x16; 3], b: &[f32x16; 3]) -> (f32x16, f32x16) {
