@@ -17,11 +17,19 @@
 //! three great circles nearly meet at ±x̂ (the clipped cell tends to a lune)
 //! and the triangle degenerates; those lobes return `None` and the caller
 //! clips the polygons.
+//!
+//! The triangles are large (edges up to nearly π), and this kernel runs
+//! once per descent with nothing to overlap it, so its cost is the latency
+//! of one edge term. Each term is therefore taken from the unit vertices,
+//! as in the quad kernels: with w = 1/(|a||b|) (two `rsqrt`s, no √ and no
+//! division), θ·(a×b)/|a×b| = (θ/sin θ)(w·a·b)·w·(a×b), θ/sin θ being the
+//! polynomial of [`super::fast_math::theta_over_sin`].
 
-use super::polygon::{edge_vector, transform_rows};
-use super::simd::{edge_vectors, permute, splat, transform};
+use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin_poly, theta_over_sin_x16};
+use super::polygon::transform_rows;
+use super::simd::{block_order, block_sums, shuffle_blocks, splat, transform};
 use glam::Vec3;
-use wide::f32x16;
+use wide::{f32x4, f32x16};
 
 /// Smallest |h_x|/|h| handled as triangles: below it the nearly antipodal
 /// vertices cost up to ~1e-7/(|h_x|/|h|) of relative accuracy.
@@ -51,7 +59,7 @@ fn triangle(k: usize, h: Vec3) -> [Vec3; 3] {
 #[inline(always)]
 fn scales(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let h = Vec3::from(rows[2]);
-    if !(h.x.abs() >= MIN_HX * h.length()) {
+    if !(h.x * h.x >= (MIN_HX * MIN_HX) * h.length_squared()) {
         return None;
     }
     Some(std::array::from_fn(|k| {
@@ -61,25 +69,88 @@ fn scales(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     }))
 }
 
+/// 1/|v| of a mapped vertex (finite for v = 0).
+#[inline(always)]
+fn inv_length(v: Vec3) -> f32 {
+    rsqrt(
+        v.z.mul_add(v.z, v.y.mul_add(v.y, v.x * v.x))
+            .max(RSQRT_FLOOR),
+    )
+}
+
+/// An edge between mapped vertices a and b, given 1/|a| and 1/|b|, as
+/// [`super::quad::unit_edge`] takes it: w·(a×b)_z (no fused products, so
+/// exactly antisymmetric), the cosine w·(a·b) and both values of
+/// [`super::fast_math::theta_over_sin`] at it, for the edge and for the
+/// edge to −b.
+#[inline(always)]
+fn base_edge(a: Vec3, b: Vec3, ia: f32, ib: f32) -> [f32; 4] {
+    let w = ia * ib;
+    let cz = a.x * b.y - a.y * b.x;
+    let d = a.z.mul_add(b.z, a.y.mul_add(b.y, a.x * b.x)) * w;
+    let (cx, cy) = (a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z);
+    let q = cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w);
+    let p = theta_over_sin_poly(d.abs());
+    let far = std::f32::consts::PI.mul_add(rsqrt(q.max(RSQRT_FLOOR)), -p);
+    [cz * w, d, p, far]
+}
+
+/// (θ·(a×b)/|a×b|)_z of the edge (s·a, ±b) from its [`base_edge`] (a, b),
+/// s = ±1 the product of the endpoints' signs: a sign flips the cross
+/// product and the cosine exactly, so this is the term the lanes of
+/// [`level1_children_x16`] compute from the signed vertices.
+#[inline(always)]
+fn signed_term([czw, d, p, far]: [f32; 4], s: f32) -> f32 {
+    (czw * s) * if d * s < 0.0 { far } else { p }
+}
+
 /// Exactly clipped integrals of the root's children, scalar.
 pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
     let h = Vec3::from(rows[2]);
+    // Child k's vertices are those of child 1 (s_z = s_y = 1) times s_y,
+    // s_z and s_z·s_y, and signs pass exactly through the map, the lengths
+    // and the edge terms: 3 vertices and 3 edges serve the 4 children.
+    let t = triangle(1, h).map(|u| transform_rows(rows, u));
+    let i = t.map(inv_length);
+    let e = [
+        base_edge(t[0], t[1], i[0], i[1]),
+        base_edge(t[1], t[2], i[1], i[2]),
+        base_edge(t[2], t[0], i[2], i[0]),
+    ];
     Some(
         std::array::from_fn(|k| {
-            let t = triangle(k, h).map(|u| transform_rows(rows, u));
-            let e0 = edge_vector(t[0], t[1]).z;
-            let e1 = edge_vector(t[1], t[2]).z;
-            let e2 = edge_vector(t[2], t[0]).z;
+            let (sz, sy) = child_signs(k);
+            let e0 = signed_term(e[0], sy * sz);
+            let e1 = signed_term(e[1], sz * (sz * sy));
+            let e2 = signed_term(e[2], (sz * sy) * sy);
             ((e0 + e1) + e2) * scale[k]
         })
         .map(|f: f32| f.max(0.0)),
     )
 }
 
-/// Lane 4k + e holds edge e of child k's triangle (e = 3 is an empty edge
-/// from 0 to 0, whose term is exactly 0). `END` picks the edge end.
-const fn lane_coefficients(end: bool) -> [[f32; 16]; 5] {
+/// The 128-bit block holding edge e of every child (lane k of it), as in
+/// [`super::quad_x16`]: the per-child sums (e0 + e1) + (e2 + e3) are then
+/// two block additions. Edge 3 is empty (from 0 to 0, a term of exactly 0),
+/// so the sums are the scalar (e0 + e1) + e2.
+const BLOCK_OF_EDGE: [usize; 4] = [0, 2, 1, 3];
+
+/// Block order taking each edge's start (vertex e) to its end (vertex
+/// e + 1 mod 3); the empty edge stays put.
+const NEXT: i32 = block_order({
+    let mut t = [3usize; 4];
+    let mut e = 0;
+    while e < 3 {
+        t[BLOCK_OF_EDGE[e]] = BLOCK_OF_EDGE[(e + 1) % 3];
+        e += 1;
+    }
+    t
+});
+
+/// Coefficients of the start of edge e of child k's triangle, vertex e, in
+/// lane k of block `BLOCK_OF_EDGE[e]`.
+const fn lane_coefficients() -> [[f32; 16]; 5] {
     // Rows: x = C0·h_z + C1·h_y + C2, y = C3·h_x, z = C4·h_x.
     let mut c = [[0.0f32; 16]; 5];
     let mut k = 0;
@@ -88,9 +159,8 @@ const fn lane_coefficients(end: bool) -> [[f32; 16]; 5] {
         let sy = if k & 2 == 0 { 1.0 } else { -1.0 };
         let mut e = 0;
         while e < 3 {
-            let v = if end { (e + 1) % 3 } else { e };
-            let l = 4 * k + e;
-            match v {
+            let l = 4 * BLOCK_OF_EDGE[e] + k;
+            match e {
                 0 => {
                     c[0][l] = sy;
                     c[4][l] = -sy;
@@ -107,8 +177,7 @@ const fn lane_coefficients(end: bool) -> [[f32; 16]; 5] {
     }
     c
 }
-const START: [[f32; 16]; 5] = lane_coefficients(false);
-const END: [[f32; 16]; 5] = lane_coefficients(true);
+const START: [[f32; 16]; 5] = lane_coefficients();
 
 /// The triangle vertices of every lane, mapped by `rows`. Each coordinate
 /// has one non-zero term, ±h_i or ±1, so it is exact, as in [`triangle`].
@@ -119,17 +188,26 @@ fn lane_vertices(rows: &[[f32; 3]; 3], c: &[[f32; 16]; 5], h: Vec3) -> [f32x16; 
     transform(rows, x, f(3) * splat(h.x), f(4) * splat(h.x))
 }
 
-const SWAP1: [i32; 16] = [1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14];
-const SWAP2: [i32; 16] = [2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13];
-
 /// [`level1_children`] with the 12 edges in one f32x16.
 pub fn level1_children_x16(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
     let h = Vec3::from(rows[2]);
     let a = lane_vertices(rows, &START, h);
-    let b = lane_vertices(rows, &END, h);
-    let ez = edge_vectors(a, b)[2];
-    let y = ez + permute(ez, &SWAP1);
-    let s = (y + permute(y, &SWAP2)).to_array();
-    Some(std::array::from_fn(|k| (s[4 * k] * scale[k]).max(0.0)))
+    let b = a.map(shuffle_blocks::<NEXT>);
+    let ia = rsqrt_x16(
+        a[2].mul_add(a[2], a[1].mul_add(a[1], a[0] * a[0]))
+            .fast_max(splat(RSQRT_FLOOR)),
+    );
+    // The operations of `edge_term_z`, lane by lane.
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let w = ia * shuffle_blocks::<NEXT>(ia);
+    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0])) * w;
+    let k = theta_over_sin_x16(d, || {
+        let cx = a[1] * b[2] - a[2] * b[1];
+        let cy = a[2] * b[0] - a[0] * b[2];
+        cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w)
+    });
+    let ez = (cz * w) * k;
+    let f = block_sums(ez) * f32x4::from(scale);
+    Some(f.fast_max(f32x4::splat(0.0)).to_array())
 }

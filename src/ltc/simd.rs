@@ -118,6 +118,35 @@ pub fn permute(v: f32x16, idx: &[i32; 16]) -> f32x16 {
     }
 }
 
+/// The immediate of [`shuffle_blocks`] for a block order (block j of the
+/// result is block `order[j]` of the source).
+pub const fn block_order(order: [usize; 4]) -> i32 {
+    (order[0] | order[1] << 2 | order[2] << 4 | order[3] << 6) as i32
+}
+
+/// The 128-bit blocks of `v` rearranged by `ORDER` (from [`block_order`]):
+/// one vshuff32x4 on AVX-512.
+#[inline(always)]
+pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m512, _mm512_shuffle_f32x4};
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
+        // avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            let vv: __m512 = std::mem::transmute(v);
+            std::mem::transmute(_mm512_shuffle_f32x4::<ORDER>(vv, vv))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        let a = v.to_array();
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
+            a[4 * ((ORDER as usize >> (2 * (l / 4))) & 3) + l % 4]
+        }))
+    }
+}
+
 /// sin and cos of azimuths one step either side of a centre (s1, c1), per
 /// lane by `side` ∈ {−1, 0, 1}: the operations of [`super::quad::node_grid`]
 /// (a rotation by the step (ss, cs), exact at side 0), without going
@@ -201,7 +230,7 @@ pub fn cross_xy(a: &[f32x16; 3], b: &[f32x16; 3]) -> (f32x16, f32x16) {
 
 /// (a×b)_z and θ/sin θ of [`unit_edges`], without forming (a×b)_x, y
 /// unless some lane is obtuse: the plain-quad kernel needs only F_z when
-/// no child straddles the horizon, and skipping 6 of its ~95 vector
+/// no child straddles the horizon, and skipping 6 of its ~80 vector
 /// operations shows in its throughput.
 #[inline(always)]
 pub fn unit_edges_z(a: &[f32x16; 3], b: &[f32x16; 3]) -> (f32x16, f32x16) {
