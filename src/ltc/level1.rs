@@ -27,7 +27,7 @@
 
 use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin_poly, theta_over_sin_x16};
 use super::polygon::transform_rows;
-use super::simd::{block_order, block_sums, shuffle_blocks, splat, transform};
+use super::simd::{BLOCK_OF_EDGE, block_sums, edge_end_blocks, shuffle_blocks, splat, transform};
 use glam::Vec3;
 use wide::{f32x4, f32x16};
 
@@ -130,23 +130,10 @@ pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4
     )
 }
 
-/// The 128-bit block holding edge e of every child (lane k of it), as in
-/// [`super::quad_x16`]: the per-child sums (e0 + e1) + (e2 + e3) are then
-/// two block additions. Edge 3 is empty (from 0 to 0, a term of exactly 0),
-/// so the sums are the scalar (e0 + e1) + e2.
-const BLOCK_OF_EDGE: [usize; 4] = [0, 2, 1, 3];
-
 /// Block order taking each edge's start (vertex e) to its end (vertex
-/// e + 1 mod 3); the empty edge stays put.
-const NEXT: i32 = block_order({
-    let mut t = [3usize; 4];
-    let mut e = 0;
-    while e < 3 {
-        t[BLOCK_OF_EDGE[e]] = BLOCK_OF_EDGE[(e + 1) % 3];
-        e += 1;
-    }
-    t
-});
+/// e + 1 mod 3); edge 3 is empty (from 0 to 0, a term of exactly 0), so the
+/// two block additions give the scalar (e0 + e1) + e2.
+const NEXT: i32 = edge_end_blocks(3);
 
 /// Coefficients of the start of edge e of child k's triangle, vertex e, in
 /// lane k of block `BLOCK_OF_EDGE[e]`.

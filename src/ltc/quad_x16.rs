@@ -16,28 +16,15 @@
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::{dyadic_sincos, step_sincos};
 use super::simd::{
-    block_order, block_sums, cross_xy, heights_and_radii, normalise, rotated_sincos,
-    shuffle_blocks, splat, unit_edges_z,
+    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, heights_and_radii, normalise,
+    rotated_sincos, shuffle_blocks, splat, unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
 use wide::{f32x4, f32x16};
 
-/// The 128-bit block holding edge e of every child: blocks 0 + 2 and
-/// 1 + 3 are added first, so e0, e1 and e2, e3 must sit in those pairs.
-const BLOCK_OF_EDGE: [usize; 4] = [0, 2, 1, 3];
-
-/// Block order taking edge starts to edge ends: block `BLOCK_OF_EDGE[e]`
-/// of the ends is block `BLOCK_OF_EDGE[e + 1]` of the starts.
-const END_BLOCKS: i32 = block_order({
-    let mut t = [0usize; 4];
-    let mut e = 0;
-    while e < 4 {
-        t[BLOCK_OF_EDGE[e]] = BLOCK_OF_EDGE[(e + 1) % 4];
-        e += 1;
-    }
-    t
-});
+/// Block order taking edge starts to edge ends.
+const END_BLOCKS: i32 = edge_end_blocks(4);
 
 /// Start corner of each lane's edge as (height index, azimuth side −1..1)
 /// of the node's 3×3 grid. Child k = (iu, iv) = (k & 1, k >> 1) runs

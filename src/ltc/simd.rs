@@ -124,6 +124,26 @@ pub const fn block_order(order: [usize; 4]) -> i32 {
     (order[0] | order[1] << 2 | order[2] << 4 | order[3] << 6) as i32
 }
 
+/// The 128-bit block holding edge e of every child (lane k of it) in the
+/// child kernels: blocks 0 + 2 and 1 + 3 are added first, so e0, e1 and
+/// e2, e3 must sit in those pairs and the per-child sums
+/// (e0 + e1) + (e2 + e3) are two block additions ([`block_sums`]).
+pub const BLOCK_OF_EDGE: [usize; 4] = [0, 2, 1, 3];
+
+/// The [`block_order`] taking each edge's start to its end in a polygon of
+/// `edges` (3 or 4) edges laid out by [`BLOCK_OF_EDGE`]: block
+/// `BLOCK_OF_EDGE[e]` of the ends is block `BLOCK_OF_EDGE[e + 1 mod edges]`
+/// of the starts; an unused fourth block stays put.
+pub const fn edge_end_blocks(edges: usize) -> i32 {
+    let mut t = [3usize; 4];
+    let mut e = 0;
+    while e < edges {
+        t[BLOCK_OF_EDGE[e]] = BLOCK_OF_EDGE[(e + 1) % edges];
+        e += 1;
+    }
+    block_order(t)
+}
+
 /// The 128-bit blocks of `v` rearranged by `ORDER` (from [`block_order`]):
 /// one vshuff32x4 on AVX-512.
 #[inline(always)]
