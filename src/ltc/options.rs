@@ -26,12 +26,13 @@ pub struct LtcOptions {
     /// falls below this (radians in cosine space) gets density × solid angle
     /// instead of an f32 edge sum (measured in `tests/ltc_deep_switch.rs`).
     pub deep_cell_size: f32,
-    /// Diffuse children of nodes shallower than this that straddle the
-    /// horizon are clipped exactly; deeper ones (and all of them when this
-    /// is ≤ 1, level 1 excepted) use the sphere approximation of the
-    /// precomputed form factor. Exact clipping is the accurate default of
-    /// the API; a guider may trade it for speed, since an approximate
-    /// product costs variance, never bias.
+    /// Diffuse children, and glossy plain-quad children, of nodes
+    /// shallower than this that straddle the horizon are clipped exactly;
+    /// deeper ones (and all of them when this is ≤ 1, level 1 excepted) use
+    /// the sphere approximation of their form factor. (Glossy children with
+    /// subdivided parallels are always clipped exactly, per edge.) Exact
+    /// clipping is the accurate default of the API; a guider may trade it
+    /// for speed, since an approximate product costs variance, never bias.
     pub exact_crossing_depth: u32,
     /// Glossy children at this level or deeper are plain chord quads;
     /// shallower ones (levels 2 to [`FIRST_PLAIN_QUAD_DEPTH`] − 1) follow
