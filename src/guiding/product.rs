@@ -48,8 +48,9 @@ pub struct ProductModel<'t> {
 ///   variance 0.0115 both ways; staircase 88.0 → 81.1 s, 0.1254 → 0.1227;
 /// - the rest, on a loaded machine (CPU seconds, interleaved runs):
 ///   staircase −9 % for chord quads from level 2 (variance 0.01386 →
-///   0.01351; not kept, see above) and −7 % for the centre switches (0.01377 → 0.01320); cornell-box −8 %
-///   for the centre switches (0.001281 → 0.001283).
+///   0.01351; not kept, see above) and −7 % for the centre switches
+///   (0.01377 → 0.01320); cornell-box −8 % for the centre switches
+///   (0.001281 → 0.001283).
 pub fn guiding_ltc_options() -> LtcOptions {
     LtcOptions {
         exact_crossing_depth: 1,
