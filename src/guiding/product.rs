@@ -217,7 +217,7 @@ mod tests {
     use crate::guiding::descent;
     use crate::guiding::quadtree::{QuadNode, QuadTree};
     use crate::math::Frame;
-    use crate::sampling::Rng;
+    use crate::sampling::{Distribution1D, Rng};
     use glam::Vec3;
 
     fn product_weights(table: &LtcTable, alpha: f32) -> ProductWeights {
@@ -279,13 +279,7 @@ mod tests {
                         assert!(b[k].is_finite() && b[k] >= 0.0, "{b:?}");
                         worst = worst.max((a[k] - b[k]).abs() / exact.total());
                     }
-                    let u = rng.next_f32() * (a[0] + a[1] + a[2] + a[3]);
-                    let mut k = 0;
-                    let mut acc = a[0];
-                    while k < 3 && acc < u {
-                        k += 1;
-                        acc += a[k];
-                    }
+                    let (k, _, _) = Distribution1D::new(&a).sample_discrete(rng.next_f32());
                     cell = cell.child(k);
                 }
             }

@@ -273,31 +273,28 @@ impl GlossyLtc {
     /// D(centre)·Ω for the 4 children.
     pub fn children_deep(&self, cell: Cell) -> [f32; 4] {
         let omega = cell_solid_angle(cell.depth + 1);
-        let (z, r, s, c) = deep_centres(cell);
-        std::array::from_fn(|k| {
-            let (iu, iv) = (k & 1, k >> 1);
-            self.density(Vec3::new(r[iu] * c[iv], r[iu] * s[iv], z[iu])) * omega
-        })
+        child_centre_directions(cell).map(|w| self.density(w) * omega)
     }
 }
 
-/// Heights, radii and sin, cos of the azimuths of the children's centres
-/// (heights by the u bit, azimuths by the v bit), shared by the scalar and
-/// wide deep kernels.
+/// Unit directions of the 4 children's centres, in [`Cell::child`] order,
+/// for the density × solid angle paths (glossy and diffuse); the wide deep
+/// kernel performs the same operations lane by lane.
 #[inline]
-pub fn deep_centres(cell: Cell) -> ([f32; 2], [f32; 2], [f32; 2], [f32; 2]) {
+pub fn child_centre_directions(cell: Cell) -> [Vec3; 4] {
     let (z, _) = child_centres(cell);
     let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
     // The node's centre meridian rotated by half a child's width either
     // way, as in `quad::node_grid`.
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
     let (ss, cs) = step_sincos(cell.depth + 2);
-    (
-        z,
-        r,
-        [s1.mul_add(cs, -(c1 * ss)), s1.mul_add(cs, c1 * ss)],
-        [c1.mul_add(cs, s1 * ss), c1.mul_add(cs, -(s1 * ss))],
-    )
+    let s = [s1.mul_add(cs, -(c1 * ss)), s1.mul_add(cs, c1 * ss)];
+    let c = [c1.mul_add(cs, s1 * ss), c1.mul_add(cs, -(s1 * ss))];
+    // Height by the u bit (k & 1), azimuth by the v bit (k >> 1).
+    std::array::from_fn(|k| {
+        let (iu, iv) = (k & 1, k >> 1);
+        Vec3::new(r[iu] * c[iv], r[iu] * s[iv], z[iu])
+    })
 }
 
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
@@ -553,13 +550,7 @@ impl ShadingLtc {
     /// n·ω⁺/π at the 4 children's centres × their solid angle.
     fn diffuse_centres(&self, cell: Cell) -> [f32; 4] {
         let omega = cell_solid_angle(cell.depth + 1) / PI;
-        let (z, r, s, c) = deep_centres(cell);
-        let n = self.normal;
-        std::array::from_fn(|k| {
-            let (iu, iv) = (k & 1, k >> 1);
-            let w = Vec3::new(r[iu] * c[iv], r[iu] * s[iv], z[iu]);
-            n.dot(w).max(0.0) * omega
-        })
+        child_centre_directions(cell).map(|w| self.normal.dot(w).max(0.0) * omega)
     }
 
     /// Cosine-lobe integrals by exact clipping in f64.

@@ -112,7 +112,7 @@ pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> O
 /// D(centre)·Ω for the 4 children in lanes 0..4, with the scalar
 /// [`GlossyLtc::children_deep`]'s operations.
 pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
-    // The scalar `deep_centres`, lane by lane: child k = (k & 1, k >> 1),
+    // The scalar `child_centre_directions`, lane by lane: child k = (k & 1, k >> 1),
     // height by the u bit, azimuth side by the v bit.
     const HEIGHT: [f32; 16] = [
         1., 3., 1., 3., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1.,

@@ -128,10 +128,17 @@ pub fn theta_over_sin_poly<T: PolyLane>(x: T) -> T {
 pub fn theta_over_sin(d: f32, q: impl FnOnce() -> f32) -> f32 {
     let p = theta_over_sin_poly(d.abs());
     if d < 0.0 {
-        std::f32::consts::PI.mul_add(rsqrt(q().max(RSQRT_FLOOR)), -p)
+        theta_over_sin_obtuse(p, q())
     } else {
         p
     }
+}
+
+/// The obtuse branch of [`theta_over_sin`]: π/sin θ − p, with
+/// p = `theta_over_sin_poly(|d|)` and sin θ = √q.
+#[inline(always)]
+pub fn theta_over_sin_obtuse(p: f32, q: f32) -> f32 {
+    std::f32::consts::PI.mul_add(rsqrt(q.max(RSQRT_FLOOR)), -p)
 }
 
 /// [`theta_over_sin`] on 16 lanes; the obtuse branch is only evaluated

@@ -25,7 +25,9 @@
 //! division), θ·(a×b)/|a×b| = (θ/sin θ)(w·a·b)·w·(a×b), θ/sin θ being the
 //! polynomial of [`super::fast_math::theta_over_sin`].
 
-use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin_poly, theta_over_sin_x16};
+use super::fast_math::{
+    RSQRT_FLOOR, rsqrt, rsqrt_x16, theta_over_sin_obtuse, theta_over_sin_poly, theta_over_sin_x16,
+};
 use super::polygon::transform_rows;
 use super::simd::{BLOCK_OF_EDGE, block_sums, edge_end_blocks, shuffle_blocks, splat, transform};
 use glam::Vec3;
@@ -91,7 +93,7 @@ fn base_edge(a: Vec3, b: Vec3, ia: f32, ib: f32) -> [f32; 4] {
     let (cx, cy) = (a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z);
     let q = cz.mul_add(cz, cy.mul_add(cy, cx * cx)) * (w * w);
     let p = theta_over_sin_poly(d.abs());
-    let far = std::f32::consts::PI.mul_add(rsqrt(q.max(RSQRT_FLOOR)), -p);
+    let far = theta_over_sin_obtuse(p, q);
     [cz * w, d, p, far]
 }
 
@@ -185,7 +187,7 @@ pub fn level1_children_x16(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f3
         a[2].mul_add(a[2], a[1].mul_add(a[1], a[0] * a[0]))
             .fast_max(splat(RSQRT_FLOOR)),
     );
-    // The operations of `edge_term_z`, lane by lane.
+    // The operations of `base_edge` and `signed_term`, lane by lane.
     let cz = a[0] * b[1] - a[1] * b[0];
     let w = ia * shuffle_blocks::<NEXT>(ia);
     let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0])) * w;

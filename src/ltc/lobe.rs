@@ -24,20 +24,22 @@ pub struct LtcParams {
 impl LtcParams {
     /// M in the frame where ω_o lies in the +x half of the xz plane.
     pub fn matrix(&self) -> DMat3 {
+        let (x, z) = self.average_frame();
+        DMat3::from_cols(x * self.m11, DVec3::Y * self.m22, x * self.m13 + z)
+    }
+
+    /// X and Z of the average-direction frame (Y = ŷ), as in the module
+    /// documentation.
+    fn average_frame(&self) -> (DVec3, DVec3) {
         let (s, c) = self.theta_avg.sin_cos();
-        let x = DVec3::new(c, 0.0, s);
-        let y = DVec3::Y;
-        let z = DVec3::new(-s, 0.0, c);
-        DMat3::from_cols(x * self.m11, y * self.m22, x * self.m13 + z)
+        (DVec3::new(c, 0.0, s), DVec3::new(-s, 0.0, c))
     }
 
     /// M⁻¹ = K⁻¹·[X Y Z]ᵀ in closed form (K the fitted upper-triangular
     /// factor): rows (X − m13·Z)/m11, Y/m22 and Z. Every shading point of
     /// product guiding needs it; a general 3×3 inverse costs more.
     pub fn inverse_matrix(&self) -> DMat3 {
-        let (s, c) = self.theta_avg.sin_cos();
-        let x = DVec3::new(c, 0.0, s);
-        let z = DVec3::new(-s, 0.0, c);
+        let (x, z) = self.average_frame();
         DMat3::from_cols((x - z * self.m13) / self.m11, DVec3::Y / self.m22, z).transpose()
     }
 }

@@ -81,23 +81,12 @@ fn table() -> &'static [f32] {
     })
 }
 
-/// asin on [0, 1] (Abramowitz & Stegun 4.4.46, |error| ≤ 2e-8 rad plus
-/// f32 rounding): libm's asinf was a tenth of the band's cost, and only
-/// the table coordinate needs it.
+/// asin on [0, 1] through the project's polynomial atan2
+/// ([`crate::directional::fast_atan2`], within 4e-7 rad): libm's asinf was
+/// a tenth of the band's cost, and only the table coordinate needs it.
 #[inline]
 fn asin_unit(x: f32) -> f32 {
-    const A: [f32; 8] = [
-        1.570_796_3,
-        -0.214_598_8,
-        0.088_978_99,
-        -0.050_174_3,
-        0.030_891_88,
-        -0.017_088_126,
-        0.006_670_09,
-        -0.001_262_491_1,
-    ];
-    let p = A.iter().rev().fold(0.0f32, |acc, &a| acc.mul_add(x, a));
-    std::f32::consts::FRAC_PI_2 - (1.0 - x).max(0.0).sqrt() * p
+    crate::directional::fast_atan2(x, ((1.0 - x) * (1.0 + x)).max(0.0).sqrt())
 }
 
 /// The clipped integral len·K(F_z/len, len) of a polygon with unclipped
