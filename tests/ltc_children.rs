@@ -156,7 +156,12 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
         let frame = random_frame(&mut rng);
         let alpha = [1e-3f32, 0.01, 0.1, 0.3, 0.5][trial % 5];
         let theta = 85.0 * rng.next_f64();
-        let s = shading(Some(alpha), theta, &frame, &all_glossy());
+        // Every plain-quad depth, so each coarse chord table is compared.
+        let opts = LtcOptions {
+            plain_quad_depth: 2 + (trial / 5 % 5) as u32,
+            ..all_glossy()
+        };
+        let s = shading(Some(alpha), theta, &frame, &opts);
         let g = s.glossy[0];
         let target = peak(&s) + DVec3::new(0.1, -0.05, 0.02) * rng.next_f64();
         for depth in 0..21u32 {

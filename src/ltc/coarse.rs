@@ -13,9 +13,16 @@
 //! part above it. Clipping is thus per edge, independent of the child, and
 //! only the horizon arcs are per child. [`finish_coarse`], shared by both
 //! kernels, sums the terms, so they agree bit for bit.
+//!
+//! The chords span at most 1/2^P turn, where P is the lobe's plain-quad
+//! depth (the first depth whose cells are a single chord wide): the API's
+//! accurate default follows parallels within 1/64 turn, and a guider that
+//! accepts plain quads from depth 4 gets chords of 1/16 turn at depths 2–3
+//! too, a third of the edges for the same chord error.
 
 use super::children::{GlossyLtc, child_grid};
-use super::polygon::{CACHED_POLYGON_DEPTH, parallel_segments};
+use super::options::{EXACT_CLIP_DEPTH, FIRST_PLAIN_QUAD_DEPTH};
+use super::polygon::parallel_chords;
 use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;
 use glam::Vec3;
@@ -53,7 +60,7 @@ pub struct CoarseNode {
     pub children: [ChildEdges; 4],
 }
 
-fn build_node(cell: Cell) -> CoarseNode {
+fn build_node(cell: Cell, chord_turns: f64) -> CoarseNode {
     let depth = cell.depth + 1;
     let (z, _) = child_grid(cell);
     let span = 1.0 / (1u64 << depth) as f32;
@@ -62,7 +69,7 @@ fn build_node(cell: Cell) -> CoarseNode {
     let rows: Vec<Vec<Vec3>> = z
         .iter()
         .map(|&z| {
-            let n = parallel_segments(depth, z as f64);
+            let n = parallel_chords(depth, z as f64, chord_turns);
             let r = (1.0 - z * z).max(0.0).sqrt();
             (0..=2 * n)
                 .map(|j| {
@@ -120,33 +127,54 @@ fn build_node(cell: Cell) -> CoarseNode {
     }
 }
 
-/// Nodes whose children are coarse: depths 1..CACHED_POLYGON_DEPTH, in
-/// level order, then iy·2^d + ix.
-static NODES: LazyLock<Vec<CoarseNode>> = LazyLock::new(|| {
+/// Plain-quad depths that have a coarse table.
+const PLAIN_QUAD_DEPTHS: std::ops::RangeInclusive<u32> = EXACT_CLIP_DEPTH + 2..=FIRST_PLAIN_QUAD_DEPTH;
+
+/// The table of a plain-quad depth P: the nodes whose children are coarse
+/// (depths 1..P − 1), in level order, then iy·2^d + ix, with chords of at
+/// most 1/2^P turn.
+fn build_table(plain_quad_depth: u32) -> Vec<CoarseNode> {
+    let chord_turns = 1.0 / (1u64 << plain_quad_depth) as f64;
     let mut v = Vec::new();
-    for depth in 1..CACHED_POLYGON_DEPTH {
+    for depth in 1..plain_quad_depth - 1 {
         let n = 1u32 << depth;
         for iy in 0..n {
             for ix in 0..n {
-                v.push(build_node(Cell { depth, ix, iy }));
+                v.push(build_node(Cell { depth, ix, iy }, chord_turns));
             }
         }
     }
     v
-});
-
-/// Forces the tables (otherwise built on first use).
-pub fn precompute() {
-    LazyLock::force(&NODES);
 }
 
-/// The edge table of a node at depth 1..=4.
+/// One lazily built table per plain-quad depth (3..=6), so a run builds
+/// only the ones its options use.
+static TABLES: [LazyLock<Vec<CoarseNode>>; 4] = [
+    LazyLock::new(|| build_table(3)),
+    LazyLock::new(|| build_table(4)),
+    LazyLock::new(|| build_table(5)),
+    LazyLock::new(|| build_table(6)),
+];
+
+fn table(plain_quad_depth: u32) -> &'static [CoarseNode] {
+    debug_assert!(PLAIN_QUAD_DEPTHS.contains(&plain_quad_depth));
+    &TABLES[(plain_quad_depth - PLAIN_QUAD_DEPTHS.start()) as usize]
+}
+
+/// Forces the table of the API's default options (others are built on
+/// first use).
+pub fn precompute() {
+    table(FIRST_PLAIN_QUAD_DEPTH);
+}
+
+/// The edge table of a node whose children are coarse (depth 1 to
+/// `plain_quad_depth` − 2).
 #[inline]
-pub fn coarse_node(cell: Cell) -> &'static CoarseNode {
-    debug_assert!((1..CACHED_POLYGON_DEPTH).contains(&cell.depth));
+pub fn coarse_node(cell: Cell, plain_quad_depth: u32) -> &'static CoarseNode {
+    debug_assert!((1..plain_quad_depth - 1).contains(&cell.depth));
     let base = ((1usize << (2 * cell.depth)) - 1) / 3 - 1;
     let n = 1usize << cell.depth;
-    &NODES[base + cell.iy as usize * n + cell.ix as usize]
+    &table(plain_quad_depth)[base + cell.iy as usize * n + cell.ix as usize]
 }
 
 /// What either kernel leaves per edge of a node (bit e of a mask is edge e).
@@ -294,7 +322,7 @@ fn arc(q: Vec3, p: Vec3) -> f32 {
 /// edge starts where the previous one ended, so that corner is reused
 /// rather than mapped again.
 pub fn coarse_children_scalar(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
-    let node = coarse_node(cell);
+    let node = coarse_node(cell, g.plain_quad_depth);
     let mut e = CoarseEdges::new();
     let mut prev: Option<(Vec3, Vec3)> = None;
     for j in 0..node.len {

@@ -9,7 +9,7 @@ use crate::directional::Cell;
 
 /// The 4 child integrals of a coarse node (depth 1..=4), 16 edges at a time.
 pub fn coarse_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
-    let node = coarse_node(cell);
+    let node = coarse_node(cell, g.plain_quad_depth);
     let mut e = CoarseEdges::new();
     let mut j = 0;
     while j < node.len {

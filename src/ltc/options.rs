@@ -34,12 +34,12 @@ pub struct LtcOptions {
     /// clipping is the accurate default of the API; a guider may trade it
     /// for speed, since an approximate product costs variance, never bias.
     pub exact_crossing_depth: u32,
-    /// Glossy children at this level or deeper are plain chord quads;
-    /// shallower ones (levels 2 to [`FIRST_PLAIN_QUAD_DEPTH`] − 1) follow
-    /// their parallels within 1/64 turn, at 2 to 7 times the cost. The
-    /// accurate default of the API is [`FIRST_PLAIN_QUAD_DEPTH`]; a guider
-    /// may lower it, since a chord's error, like the sphere approximation's,
-    /// costs variance, never bias.
+    /// Glossy children at this level P or deeper are plain chord quads;
+    /// shallower ones (levels 2 to P − 1) follow their parallels with
+    /// chords of 1/2^P turn, the width of a plain quad, at 2 to 7 times the
+    /// cost. The accurate default of the API is [`FIRST_PLAIN_QUAD_DEPTH`]
+    /// (1/64 turn); a guider may lower it, since a chord's error, like the
+    /// sphere approximation's, costs variance, never bias.
     pub plain_quad_depth: u32,
     /// Diffuse children at this level or deeper get n·ω⁺/π at their centre
     /// × Ω, like deep glossy children, instead of their form factors. The

@@ -32,13 +32,20 @@ pub const MAX_CHORD_TURNS: f64 = 1.0 / 64.0;
 
 /// Number of chords replacing the parallel at height `z` of a cell at `depth`.
 pub fn parallel_segments(depth: u32, z: f64) -> usize {
+    parallel_chords(depth, z, MAX_CHORD_TURNS)
+}
+
+/// Number of chords of at most `chord_turns` each replacing the parallel at
+/// height `z` of a cell at `depth`. The equator is a great circle, split
+/// only where a cell's corners would otherwise be antipodal.
+pub fn parallel_chords(depth: u32, z: f64, chord_turns: f64) -> usize {
     let span = 1.0 / (1u64 << depth.min(62)) as f64;
     if z.abs() >= 1.0 {
         1
     } else if z == 0.0 {
         if span > 0.25 { 2 } else { 1 }
     } else {
-        (span / MAX_CHORD_TURNS).ceil().max(1.0) as usize
+        (span / chord_turns).ceil().max(1.0) as usize
     }
 }
 
