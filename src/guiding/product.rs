@@ -40,7 +40,7 @@ pub struct ProductModel<'t> {
 ///   level-2 child; from level 4 on, 2 %: the test below), and levels 2–3
 ///   follow their parallels with chords of the same 1/16 turn instead of
 ///   1/64 (level 2: 30 edges instead of 102; worst child error of the test
-///   below unchanged at 2.4 % of the lobe);
+///   below, α = 0.05: 2.05 % → 2.35 % of the lobe);
 /// - diffuse children from level 3 on, and glossy children once their
 ///   mapped size is below 0.3 (instead of 0.088), take density × solid
 ///   angle at their centre.
