@@ -36,6 +36,33 @@ pub const THETA_OVER_SIN: [f32; 8] = [
     -2.7081303298e-02,
 ];
 
+/// Smallest cosine of an edge that [`THETA_OVER_SIN_SHORT`] covers (edges
+/// up to 36.9°): every edge of a plain-quad node past level ~6 of a sharp
+/// lobe, and all of them deeper.
+pub const SHORT_EDGE_MIN_COS: f32 = 0.8;
+
+/// θ/sin θ ≈ Σ c_k·d^k on d = cos θ ∈ [0.8, 1]: Chebyshev interpolant of
+/// degree 3 rounded to f32, relative error 4.8e-7 in f32 Horner (the
+/// degree-7 [`THETA_OVER_SIN`]'s is 4.7e-7). The function is analytic far
+/// beyond the interval (its branch point is at d = −1), so 3 fused
+/// operations suffice where the full range needs 9: the plain-quad kernels
+/// take it when every edge of a node is this short.
+#[allow(clippy::excessive_precision)] // printed from the fit
+pub const THETA_OVER_SIN_SHORT: [f32; 4] = [
+    1.5339473486e+00,
+    -8.0322659016e-01,
+    3.3800449967e-01,
+    -6.8725638092e-02,
+];
+
+/// θ/sin θ for d ∈ [[`SHORT_EDGE_MIN_COS`], 1] (Horner: the kernels are
+/// throughput-bound, and Estrin would cost 2 more operations).
+#[inline(always)]
+pub fn theta_over_sin_short<T: PolyLane>(d: T) -> T {
+    let c = THETA_OVER_SIN_SHORT.map(T::splat);
+    c[3].fma(d, c[2]).fma(d, c[1]).fma(d, c[0])
+}
+
 /// Floor of the arguments of [`rsqrt`]: keeps a zero vertex or a zero
 /// cross product finite (its products with 0 then stay exactly 0).
 pub const RSQRT_FLOOR: f32 = 1e-30;

@@ -10,7 +10,10 @@
 //! the same operations, one lane each, so both agree bit for bit.
 
 use super::children::{GlossyLtc, HorizonSide, child_grid};
-use super::fast_math::{RSQRT_FLOOR, dyadic_sincos, rsqrt, step_sincos, theta_over_sin};
+use super::fast_math::{
+    RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_sincos, rsqrt, step_sincos, theta_over_sin,
+    theta_over_sin_short,
+};
 use super::polygon::transform_rows;
 use crate::directional::Cell;
 use glam::Vec3;
@@ -77,23 +80,33 @@ pub fn unit_cosine_vertex(rows: &[[f32; 3]; 3], w: Vec3) -> Vec3 {
     t * rsqrt(n2.max(RSQRT_FLOOR))
 }
 
-/// a×b (no fused products, so exactly antisymmetric) and θ/sin θ of the
-/// edge between unit vectors a and b; the edge's term is (a×b)·k.
+/// a×b (no fused products, so exactly antisymmetric) and a·b of unit
+/// vectors a and b.
 #[inline(always)]
-pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
+pub fn cross_dot(a: Vec3, b: Vec3) -> (Vec3, f32) {
     let c = Vec3::new(
         a.y * b.z - a.z * b.y,
         a.z * b.x - a.x * b.z,
         a.x * b.y - a.y * b.x,
     );
-    let d = a.z.mul_add(b.z, a.y.mul_add(b.y, a.x * b.x));
+    (c, a.z.mul_add(b.z, a.y.mul_add(b.y, a.x * b.x)))
+}
+
+/// a×b and θ/sin θ of the edge between unit vectors a and b; the edge's
+/// term is (a×b)·k.
+#[inline(always)]
+pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
+    let (c, d) = cross_dot(a, b);
     let k = theta_over_sin(d, || c.z.mul_add(c.z, c.y.mul_add(c.y, c.x * c.x)));
     (c, k)
 }
 
 /// Edge sums (2π·F, winding as built) and horizon sides of the 4 plain-quad
 /// children. Only F_z is formed unless a child straddles the horizon (the
-/// sphere approximation then needs all of F).
+/// sphere approximation then needs all of F). When every child is above
+/// the horizon and every edge is short (cos θ ≥ [`SHORT_EDGE_MIN_COS`]),
+/// θ/sin θ is the short polynomial; the wide kernel decides alike (its 16
+/// lanes hold the same 12 edges and 9 corners), so both stay bit for bit.
 pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
     let gr = node_grid(cell);
     let (pc, qz) = grid_columns(&g.rows, &gr);
@@ -101,8 +114,8 @@ pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSi
         std::array::from_fn(|vi| unit_grid_vertex(gr.r[zi], &pc[vi], &qz[zi]))
     });
     // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
-    let par = |zi: usize, vi: usize| unit_edge(p[zi][vi], p[zi][vi + 1]);
-    let mer = |vi: usize, zi: usize| unit_edge(p[zi][vi], p[zi + 1][vi]);
+    let par = |zi: usize, vi: usize| cross_dot(p[zi][vi], p[zi][vi + 1]);
+    let mer = |vi: usize, zi: usize| cross_dot(p[zi][vi], p[zi + 1][vi]);
     let pe = [
         [par(0, 0), par(0, 1)],
         [par(1, 0), par(1, 1)],
@@ -117,8 +130,19 @@ pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSi
         let (iu, iv) = (k & 1, k >> 1);
         HorizonSide::of_vertices(&[p[iu][iv], p[iu][iv + 1], p[iu + 1][iv + 1], p[iu + 1][iv]])
     });
+    let short_node = sides.iter().all(|&s| s == HorizonSide::Above)
+        && pe
+            .iter()
+            .chain(&me)
+            .flatten()
+            .all(|&(_, d)| d >= SHORT_EDGE_MIN_COS);
     let full = sides.contains(&HorizonSide::Crossing);
-    let term = |(c, k): (Vec3, f32)| {
+    let term = |(c, d): (Vec3, f32)| {
+        let k = if short_node {
+            theta_over_sin_short(d)
+        } else {
+            theta_over_sin(d, || c.z.mul_add(c.z, c.y.mul_add(c.y, c.x * c.x)))
+        };
         if full {
             c * k
         } else {

@@ -14,14 +14,17 @@
 //! leave the 4 children in one f32x4, and the edge ends a block rotation.
 
 use super::children::{GlossyLtc, HorizonSide};
-use super::fast_math::{dyadic_sincos, step_sincos};
+use super::fast_math::{
+    DYADIC_BITS, SHORT_EDGE_MIN_COS, dyadic_sincos, step_sincos, theta_over_sin_short,
+};
 use super::simd::{
-    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, heights_and_radii, normalise,
-    rotated_sincos, shuffle_blocks, splat, unit_edges_z,
+    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, normalise, shuffle_blocks, splat,
+    spread4, unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
-use wide::{f32x4, f32x16};
+use std::sync::LazyLock;
+use wide::{f32x4, f32x16, i32x4};
 
 /// Block order taking edge starts to edge ends.
 const END_BLOCKS: i32 = edge_end_blocks(4);
@@ -64,19 +67,74 @@ const fn child_lanes() -> [u32; 4] {
 }
 const CHILD_LANES: [u32; 4] = child_lanes();
 
+/// [`START_HEIGHT`] as permutation indices.
+const START_HEIGHT_INDEX: [i32; 16] = {
+    let mut t = [0i32; 16];
+    let mut l = 0;
+    while l < 16 {
+        t[l] = START_HEIGHT[l] as i32;
+        l += 1;
+    }
+    t
+};
+
+/// Per child depth, the lane constants that only depend on the depth: the
+/// rotation of each lane's azimuth from the node's centre meridian, cos
+/// (exactly 1 on the centre) and sin (side × sin of a child's width), as
+/// [`super::simd::rotated_sincos`] forms them, and 2h·j of the grid heights
+/// j = 0, 1, 2 (h the child's height in u). Loaded rather than formed, they
+/// cost no issue slots.
+struct DepthLanes {
+    cos_off: [f32; 16],
+    sin_off: [f32; 16],
+    two_h_j: [f32; 4],
+    two_h: f32,
+}
+
+static DEPTH_LANES: LazyLock<Box<[DepthLanes]>> =
+    LazyLock::new(|| (0..=DYADIC_BITS).map(depth_lanes).collect());
+
+fn depth_lanes(d: u32) -> DepthLanes {
+    let (ss, cs) = step_sincos(d);
+    let two_h = 2.0 / (1u64 << d.min(63)) as f32;
+    DepthLanes {
+        cos_off: START_SIDE.map(|s| if s == 0.0 { 1.0 } else { cs }),
+        sin_off: START_SIDE.map(|s| s * ss),
+        two_h_j: [0.0, two_h, 2.0 * two_h, 0.0],
+        two_h,
+    }
+}
+
 /// Edge starts and ends (unit vectors in the lobe's cosine space) of the
 /// 16 lanes: the scalar kernel's `node_grid` and `unit_grid_vertex`, lane by
-/// lane.
+/// lane. The 3 heights and radii are formed 4 wide and spread: with
+/// M = (u + j)·2h (exact), z = M − 1 and 1 ∓ z = 2 − M, M exactly, so
+/// these are the scalar's values bit for bit.
 #[inline(always)]
 fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let d = cell.depth + 1;
-    let h = 1.0 / (1u64 << d) as f32;
-    let (z, r) = heights_and_radii(2 * cell.ix, h, f32x16::from(START_HEIGHT));
-    let (s, c) = rotated_sincos(
-        dyadic_sincos(2 * cell.iy as u64 + 1, d),
-        step_sincos(d),
-        f32x16::from(START_SIDE),
+    let deeper;
+    let lanes = match DEPTH_LANES.get(d as usize) {
+        Some(l) => l,
+        None => {
+            deeper = depth_lanes(d);
+            &deeper
+        }
+    };
+    // `u` (< 2^24, so exact in f32) converted lane-wise: see
+    // `heights_and_radii` on why not a scalar conversion.
+    let u = i32x4::splat((2 * cell.ix) as i32).round_float();
+    let m = u.mul_add(f32x4::splat(lanes.two_h), f32x4::from(lanes.two_h_j));
+    let zq = m - f32x4::splat(1.0);
+    let rq = ((f32x4::splat(2.0) - m) * m).sqrt();
+    let (z, r) = (
+        spread4(zq, &START_HEIGHT_INDEX),
+        spread4(rq, &START_HEIGHT_INDEX),
     );
+    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
+    let (cs_l, ss_l) = (f32x16::from(lanes.cos_off), f32x16::from(lanes.sin_off));
+    let (s1, c1) = (splat(s1), splat(c1));
+    let (s, c) = (s1.mul_add(cs_l, c1 * ss_l), c1.mul_add(cs_l, -(s1 * ss_l)));
     // r·P(φ) + Q(z), as the scalar `grid_columns` and `unit_grid_vertex`.
     let rw = &g.rows;
     let col = |i: usize| splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
@@ -90,12 +148,21 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
 #[inline]
 pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let (a, b) = edge_ends(g, cell);
+    let cz = a[0] * b[1] - a[1] * b[0];
+    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
     // Every corner is some lane's edge start.
     let above = a[2].simd_ge(splat(0.0));
+    let short = d.simd_ge(splat(SHORT_EDGE_MIN_COS));
+    let scale = g.orientation * (0.5 / std::f32::consts::PI);
+    if (above & short).all() {
+        // Every child above the horizon and every edge short (the scalar
+        // kernel's `short_node`): F_z is the integral.
+        let k = theta_over_sin_short(d);
+        let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
+        return f.to_array();
+    }
     let (cz, k) = unit_edges_z(&a, &b);
     if above.all() {
-        // Every child above the horizon: F_z is the integral.
-        let scale = g.orientation * (0.5 / std::f32::consts::PI);
         let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
         return f.to_array();
     }

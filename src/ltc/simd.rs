@@ -273,3 +273,31 @@ pub fn horizon_points(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
     let inv = rsqrt_x16(y.mul_add(y, x * x).fast_max(splat(RSQRT_FLOOR)));
     [x * inv, y * inv, splat(0.0)]
 }
+
+/// Lanes of a 4-lane vector spread over 16 by constant indices (< 4): one
+/// vpermps on AVX-512, the xmm read as the low quarter of a zmm. Per-node
+/// quantities with only 3 distinct values (heights, radii) are cheaper to
+/// compute 4 wide and spread than 16 wide, where a zmm √ costs about 8
+/// issue slots (measured against vaddps on this machine).
+#[inline(always)]
+pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m128, __m512i, _mm512_castps128_ps512, _mm512_permutexvar_ps};
+        // SAFETY: f32x4 and __m128 are both 16 bytes holding 4 f32, [i32;
+        // 16] and __m512i both 64 bytes; the indices only read the low 4
+        // lanes (the cast leaves the upper ones undefined); avx512f is
+        // enabled at compile time (the cfg above).
+        unsafe {
+            debug_assert!(idx.iter().all(|&i| (0..4).contains(&i)));
+            let vi: __m512i = std::mem::transmute(*idx);
+            let vv: __m128 = std::mem::transmute(v);
+            std::mem::transmute(_mm512_permutexvar_ps(vi, _mm512_castps128_ps512(vv)))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        let a = v.to_array();
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
+    }
+}
