@@ -160,6 +160,9 @@ pub struct GlossyLtc {
     pub orientation: f32,
     /// |det A|, the Jacobian factor of the density.
     pub det_abs: f32,
+    /// orientation/2π ÷ 4: the wide plain-quad kernel's edge sums come from
+    /// vertices of length 2 (its Newton step skips a halving), so 4× F.
+    pub quarter_scale: f32,
     /// Children at this depth or deeper use density × solid angle: the
     /// first depth where a cell (2π/2^d wide), magnified by ‖A‖_F, is
     /// smaller than the deep cell size.
@@ -185,12 +188,14 @@ impl GlossyLtc {
                 .clamp(1, 64) as u32;
         let r = a.transpose();
         let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
+        let orientation = if det < 0.0 { -1.0 } else { 1.0 };
         GlossyLtc {
             weight,
             rows: [row(0), row(1), row(2)],
             a64: a,
-            orientation: if det < 0.0 { -1.0 } else { 1.0 },
+            orientation,
             det_abs: det.abs() as f32,
+            quarter_scale: orientation * (0.5 / PI) * 0.25,
             deep_depth,
             plain_quad_depth: opts
                 .plain_quad_depth
@@ -417,6 +422,7 @@ impl ShadingLtc {
             a64: DMat3::IDENTITY,
             orientation: 1.0,
             det_abs: 1.0,
+            quarter_scale: 0.125 / PI,
             deep_depth: 64,
             plain_quad_depth: FIRST_PLAIN_QUAD_DEPTH,
             exact_crossing_depth: EXACT_CROSSING_DEPTH,

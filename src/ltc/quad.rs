@@ -18,12 +18,22 @@ use super::polygon::transform_rows;
 use crate::directional::Cell;
 use glam::Vec3;
 
-/// The 3×3 corner grid of a node's children: heights, radii √(1 − z²) and
-/// sin, cos of the azimuths (index 1 is the node's centre meridian).
+/// Floor of r² = (1 − z)(1 + z) before the cotangent divides by r: only
+/// the poles (r = 0) see it — the smallest other r², at depth 22, is
+/// ~2^-20, and adding 2^-48 to it rounds back — and there it turns
+/// z/r into ±2^24, far enough that the map of the pole is A·ẑ to f32
+/// precision, without an infinity.
+pub const POLE_R2_FLOOR: f32 = 1.0 / (1u64 << 48) as f32;
+
+/// The 3×3 corner grid of a node's children: heights, cot θ = z/√(1 − z²)
+/// and sin, cos of the azimuths (index 1 is the node's centre meridian).
+/// A corner (r·cos φ, r·sin φ, z) is only needed as a direction, so it is
+/// taken as (cos φ, sin φ, cot θ): mapped by A that is P(φ) + cot θ·A·ẑ,
+/// one fused operation per coordinate instead of two.
 #[derive(Clone, Copy, Debug)]
 pub struct NodeGrid {
     pub z: [f32; 3],
-    pub r: [f32; 3],
+    pub cot: [f32; 3],
     pub sin: [f32; 3],
     pub cos: [f32; 3],
 }
@@ -34,42 +44,38 @@ pub struct NodeGrid {
 pub fn node_grid(cell: Cell) -> NodeGrid {
     let (z, _) = child_grid(cell);
     // (1 − z)(1 + z) is exact near the poles, where 1 − z² cancels.
-    let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
+    let cot = z.map(|z| z / (1.0 - z).mul_add(1.0 + z, POLE_R2_FLOOR).sqrt());
     let d = cell.depth + 1;
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
     let (ss, cs) = step_sincos(d);
     NodeGrid {
         z,
-        r,
+        cot,
         sin: [s1.mul_add(cs, -(c1 * ss)), s1, s1.mul_add(cs, c1 * ss)],
         cos: [c1.mul_add(cs, s1 * ss), c1, c1.mul_add(cs, -(s1 * ss))],
     }
 }
 
-/// The map split along the grid's structure, A·(r·cos φ, r·sin φ, z) =
-/// r·P(φ) + Q(z): `p[vi]` = A·(cos φ, sin φ, 0) per azimuth and `q[zi]` =
-/// A·(0, 0, z) per height. Each corner is then one fused r·P + Q per
-/// coordinate, and the wide kernel forms P and Q while √(1 − z²) is still
-/// in flight, so the map no longer waits for the square root.
+/// P(φ) = A·(cos φ, sin φ, 0) per azimuth of the grid: `p[vi]`.
 #[inline(always)]
-pub fn grid_columns(rows: &[[f32; 3]; 3], gr: &NodeGrid) -> ([[f32; 3]; 3], [[f32; 3]; 3]) {
-    let p = std::array::from_fn(|vi| {
+pub fn grid_columns(rows: &[[f32; 3]; 3], gr: &NodeGrid) -> [[f32; 3]; 3] {
+    std::array::from_fn(|vi| {
         std::array::from_fn(|i| rows[i][1].mul_add(gr.sin[vi], rows[i][0] * gr.cos[vi]))
-    });
-    let q = std::array::from_fn(|zi| std::array::from_fn(|i| rows[i][2] * gr.z[zi]));
-    (p, q)
+    })
 }
 
-/// The corner r·P + Q (see [`grid_columns`]), normalised.
+/// The corner P + cot θ·A·ẑ (see [`NodeGrid`]), normalised; the floor of
+/// |t|² rides in the first product.
 #[inline(always)]
-pub fn unit_grid_vertex(r: f32, p: &[f32; 3], q: &[f32; 3]) -> Vec3 {
+pub fn unit_grid_vertex(rows: &[[f32; 3]; 3], cot: f32, p: &[f32; 3]) -> Vec3 {
     let t = Vec3::new(
-        r.mul_add(p[0], q[0]),
-        r.mul_add(p[1], q[1]),
-        r.mul_add(p[2], q[2]),
+        cot.mul_add(rows[0][2], p[0]),
+        cot.mul_add(rows[1][2], p[1]),
+        cot.mul_add(rows[2][2], p[2]),
     );
-    let n2 = t.z.mul_add(t.z, t.y.mul_add(t.y, t.x * t.x));
-    t * rsqrt(n2.max(RSQRT_FLOOR))
+    let n2 =
+        t.z.mul_add(t.z, t.y.mul_add(t.y, t.x.mul_add(t.x, RSQRT_FLOOR)));
+    t * rsqrt(n2)
 }
 
 /// A world direction mapped by `rows` and normalised.
@@ -109,9 +115,9 @@ pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
 /// lanes hold the same 12 edges and 9 corners), so both stay bit for bit.
 pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
     let gr = node_grid(cell);
-    let (pc, qz) = grid_columns(&g.rows, &gr);
+    let pc = grid_columns(&g.rows, &gr);
     let p: [[Vec3; 3]; 3] = std::array::from_fn(|zi| {
-        std::array::from_fn(|vi| unit_grid_vertex(gr.r[zi], &pc[vi], &qz[zi]))
+        std::array::from_fn(|vi| unit_grid_vertex(&g.rows, gr.cot[zi], &pc[vi]))
     });
     // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
     let par = |zi: usize, vi: usize| cross_dot(p[zi][vi], p[zi][vi + 1]);

@@ -15,11 +15,13 @@
 
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::{
-    DYADIC_BITS, SHORT_EDGE_MIN_COS, dyadic_sincos, step_sincos, theta_over_sin_short,
+    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, THETA_OVER_SIN_SHORT, dyadic_sincos, rsqrt14_x16,
+    step_sincos, theta_over_sin_x16,
 };
+use super::quad::POLE_R2_FLOOR;
 use super::simd::{
-    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, normalise, shuffle_blocks, splat,
-    spread4, unit_edges_z,
+    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, shuffle_blocks, splat, spread4,
+    unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -105,11 +107,14 @@ fn depth_lanes(d: u32) -> DepthLanes {
     }
 }
 
-/// Edge starts and ends (unit vectors in the lobe's cosine space) of the
-/// 16 lanes: the scalar kernel's `node_grid` and `unit_grid_vertex`, lane by
-/// lane. The 3 heights and radii are formed 4 wide and spread: with
-/// M = (u + j)·2h (exact), z = M − 1 and 1 ∓ z = 2 − M, M exactly, so
-/// these are the scalar's values bit for bit.
+/// Edge starts and ends in the lobe's cosine space, of length 2, of the 16
+/// lanes: twice the scalar kernel's `node_grid` corners through
+/// `unit_grid_vertex`, lane by lane. The 3 heights and cotangents are
+/// formed 4 wide and spread: with M = (u + j)·2h (exact), z = M − 1 and
+/// 1 ∓ z = 2 − M, M exactly, so these are the scalar's values bit for bit.
+/// The Newton step of 1/|t| is y·(3 − |t|²y²), twice the scalar's
+/// y·(1.5 − ½|t|²y²) exactly (one multiplication fewer), so every vertex is
+/// exactly twice the scalar's, and cross and dot products 4 times.
 #[inline(always)]
 fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let d = cell.depth + 1;
@@ -126,43 +131,66 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let u = i32x4::splat((2 * cell.ix) as i32).round_float();
     let m = u.mul_add(f32x4::splat(lanes.two_h), f32x4::from(lanes.two_h_j));
     let zq = m - f32x4::splat(1.0);
-    let rq = ((f32x4::splat(2.0) - m) * m).sqrt();
-    let (z, r) = (
-        spread4(zq, &START_HEIGHT_INDEX),
-        spread4(rq, &START_HEIGHT_INDEX),
-    );
+    let cot = zq
+        / (f32x4::splat(2.0) - m)
+            .mul_add(m, f32x4::splat(POLE_R2_FLOOR))
+            .sqrt();
+    let cot = spread4(cot, &START_HEIGHT_INDEX);
     let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
     let (cs_l, ss_l) = (f32x16::from(lanes.cos_off), f32x16::from(lanes.sin_off));
     let (s1, c1) = (splat(s1), splat(c1));
     let (s, c) = (s1.mul_add(cs_l, c1 * ss_l), c1.mul_add(cs_l, -(s1 * ss_l)));
-    // r·P(φ) + Q(z), as the scalar `grid_columns` and `unit_grid_vertex`.
+    // P(φ) + cot θ·A·ẑ, as the scalar `grid_columns` and `unit_grid_vertex`.
     let rw = &g.rows;
-    let col = |i: usize| splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
-    let t = [0, 1, 2].map(|i| r.mul_add(col(i), splat(rw[i][2]) * z));
-    let a = normalise(t);
+    let t = [0, 1, 2].map(|i| {
+        let p = splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
+        cot.mul_add(splat(rw[i][2]), p)
+    });
+    let n2 = t[2].mul_add(
+        t[2],
+        t[1].mul_add(t[1], t[0].mul_add(t[0], splat(RSQRT_FLOOR))),
+    );
+    let y = rsqrt14_x16(n2);
+    let inv2 = y * (-n2).mul_add(y * y, splat(3.0));
+    let a = t.map(|v| v * inv2);
     let b = a.map(shuffle_blocks::<END_BLOCKS>);
     (a, b)
 }
+
+/// [`THETA_OVER_SIN_SHORT`] for the cosine times 4 (exact powers of 2, so
+/// Horner's steps are the scalar's times 4, 16, 64, 1 exactly).
+const SHORT_BY_4: [f32; 4] = [
+    THETA_OVER_SIN_SHORT[0],
+    THETA_OVER_SIN_SHORT[1] / 4.0,
+    THETA_OVER_SIN_SHORT[2] / 16.0,
+    THETA_OVER_SIN_SHORT[3] / 64.0,
+];
 
 /// The 4 child integrals of a node whose children are plain quads.
 #[inline]
 pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let (a, b) = edge_ends(g, cell);
-    let cz = a[0] * b[1] - a[1] * b[0];
-    let d = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
-    // Every corner is some lane's edge start.
-    let above = a[2].simd_ge(splat(0.0));
-    let short = d.simd_ge(splat(SHORT_EDGE_MIN_COS));
-    let scale = g.orientation * (0.5 / std::f32::consts::PI);
-    if (above & short).all() {
+    // 4·(a×b)_z and 4·a·b of the scalar's unit vectors.
+    let cz4 = a[0] * b[1] - a[1] * b[0];
+    let d4 = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
+    // Every corner is some lane's edge start; NaN fails both tests.
+    let below = !a[2].simd_ge(splat(0.0));
+    let long = !d4.simd_ge(splat(4.0 * SHORT_EDGE_MIN_COS));
+    if !(below | long).any() {
         // Every child above the horizon and every edge short (the scalar
         // kernel's `short_node`): F_z is the integral.
-        let k = theta_over_sin_short(d);
-        let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
-        return f.to_array();
+        let c = SHORT_BY_4.map(splat);
+        let k = c[3].mul_add(d4, c[2]).mul_add(d4, c[1]).mul_add(d4, c[0]);
+        let f = block_sums(cz4 * k) * f32x4::splat(g.quarter_scale);
+        return f.fast_max(f32x4::splat(0.0)).to_array();
     }
-    let (cz, k) = unit_edges_z(&a, &b);
-    if above.all() {
+    if !below.any() {
+        let (cz, d) = (cz4 * splat(0.25), d4 * splat(0.25));
+        let k = theta_over_sin_x16(d, || {
+            let (cx, cy) = cross_xy(&a, &b);
+            cz4.mul_add(cz4, cy.mul_add(cy, cx * cx)) * splat(1.0 / 16.0)
+        });
+        let scale = g.orientation * (0.5 / std::f32::consts::PI);
         let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
         return f.to_array();
     }
@@ -177,6 +205,7 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
 #[inline(never)]
 fn below_or_across(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let (a, b) = edge_ends(g, cell);
+    let (a, b) = (a.map(|v| v * splat(0.5)), b.map(|v| v * splat(0.5)));
     let (cz, k) = unit_edges_z(&a, &b);
     let above = a[2].simd_ge(splat(0.0)).to_bitmask();
     let below = a[2].simd_le(splat(0.0)).to_bitmask();
