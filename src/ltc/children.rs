@@ -156,6 +156,11 @@ pub struct GlossyLtc {
     pub rows: [[f32; 3]; 3],
     /// A in f64 for the reference kernel.
     pub a64: DMat3,
+    /// R·A by rows, R the rotation about the cosine-space z axis that
+    /// zeroes the first row's z entry (exactly 0): the plain-quad kernels
+    /// only need F_z and |F|, which R keeps, and their corner map saves an
+    /// operation on it.
+    pub quad_rows: [[f32; 3]; 3],
     /// sign(det A): a mirror flips the winding of the transformed cells.
     pub orientation: f32,
     /// |det A|, the Jacobian factor of the density.
@@ -189,10 +194,24 @@ impl GlossyLtc {
         let r = a.transpose();
         let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
         let orientation = if det < 0.0 { -1.0 } else { 1.0 };
+        let (a0, a1) = (r.col(0), r.col(1));
+        let hyp = a0.z.hypot(a1.z);
+        let (c, s) = if hyp > 0.0 {
+            (a1.z / hyp, a0.z / hyp)
+        } else {
+            (1.0, 0.0)
+        };
+        let (q0, q1) = (a0 * c - a1 * s, a0 * s + a1 * c);
+        let quad_rows = [
+            [q0.x as f32, q0.y as f32, 0.0],
+            [q1.x as f32, q1.y as f32, q1.z as f32],
+            row(2),
+        ];
         GlossyLtc {
             weight,
             rows: [row(0), row(1), row(2)],
             a64: a,
+            quad_rows,
             orientation,
             det_abs: det.abs() as f32,
             quarter_scale: orientation * (0.5 / PI) * 0.25,
@@ -420,6 +439,7 @@ impl ShadingLtc {
             weight: 0.0,
             rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             a64: DMat3::IDENTITY,
+            quad_rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             orientation: 1.0,
             det_abs: 1.0,
             quarter_scale: 0.125 / PI,

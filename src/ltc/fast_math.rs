@@ -237,6 +237,16 @@ pub fn dyadic_sincos(n: u64, depth: u32) -> (f32, f32) {
     table_sincos(&TABLES, n, depth)
 }
 
+/// The two table entries behind [`dyadic_sincos`]`(n, depth)` (depth ≤
+/// [`DYADIC_BITS`]): [sin, cos] of its high and of its low part.
+#[inline(always)]
+pub fn dyadic_entries(n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
+    debug_assert!(depth <= DYADIC_BITS);
+    let tab = &**TABLES;
+    let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
+    (tab.hi[t >> TABLE_BITS], tab.lo[t & ((1 << TABLE_BITS) - 1)])
+}
+
 #[inline(always)]
 fn table_sincos(tab: &SinCosTables, n: u64, depth: u32) -> (f32, f32) {
     let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;

@@ -11,8 +11,8 @@
 
 use super::children::{GlossyLtc, HorizonSide, child_grid};
 use super::fast_math::{
-    RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_sincos, rsqrt, step_sincos, theta_over_sin,
-    theta_over_sin_short,
+    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_entries, dyadic_sincos, rsqrt,
+    step_sincos, theta_over_sin, theta_over_sin_short,
 };
 use super::polygon::transform_rows;
 use crate::directional::Cell;
@@ -38,22 +38,45 @@ pub struct NodeGrid {
     pub cos: [f32; 3],
 }
 
-/// Corner grid of `cell`'s children. The azimuths are dyadic: the centre
-/// comes from the tables, the sides by one rotation by a child's width.
+/// sin, cos of φ_n + ψ, φ_n = 2π·n/2^depth given by its [`dyadic_entries`]
+/// (high, low), from (cos ψ, sin ψ): rotated by the low part, then by the
+/// high part. At ψ = 0 both rotations reduce to [`dyadic_sincos`]'s angle
+/// addition, so the centre azimuth is its value; the wide kernel rotates
+/// its lanes with these operations, straight from the table entries.
+#[inline(always)]
+pub fn rotate_by_entries(
+    ([sh, ch], [sl, cl]): ([f32; 2], [f32; 2]),
+    co: f32,
+    so: f32,
+) -> (f32, f32) {
+    let (ec, es) = (cl.mul_add(co, -(sl * so)), sl.mul_add(co, cl * so));
+    (sh.mul_add(ec, ch * es), ch.mul_add(ec, -(sh * es)))
+}
+
+/// Corner grid of `cell`'s children. The azimuths are dyadic: the centre's
+/// two table entries rotated by a child's width either way (deeper than the
+/// tables resolve, the centre rotated by the width).
 #[inline]
 pub fn node_grid(cell: Cell) -> NodeGrid {
     let (z, _) = child_grid(cell);
     // (1 − z)(1 + z) is exact near the poles, where 1 − z² cancels.
     let cot = z.map(|z| z / (1.0 - z).mul_add(1.0 + z, POLE_R2_FLOOR).sqrt());
     let d = cell.depth + 1;
-    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, d);
+    let n = 2 * cell.iy as u64 + 1;
     let (ss, cs) = step_sincos(d);
-    NodeGrid {
-        z,
-        cot,
-        sin: [s1.mul_add(cs, -(c1 * ss)), s1, s1.mul_add(cs, c1 * ss)],
-        cos: [c1.mul_add(cs, s1 * ss), c1, c1.mul_add(cs, -(s1 * ss))],
-    }
+    let (sin, cos) = if d <= DYADIC_BITS {
+        let e = dyadic_entries(n, d);
+        let [(s0, c0), (s1, c1), (s2, c2)] =
+            [(cs, -ss), (1.0, 0.0), (cs, ss)].map(|(co, so)| rotate_by_entries(e, co, so));
+        ([s0, s1, s2], [c0, c1, c2])
+    } else {
+        let (s1, c1) = dyadic_sincos(n, d);
+        (
+            [s1.mul_add(cs, -(c1 * ss)), s1, s1.mul_add(cs, c1 * ss)],
+            [c1.mul_add(cs, s1 * ss), c1, c1.mul_add(cs, -(s1 * ss))],
+        )
+    };
+    NodeGrid { z, cot, sin, cos }
 }
 
 /// P(φ) = A·(cos φ, sin φ, 0) per azimuth of the grid: `p[vi]`.
@@ -65,11 +88,13 @@ pub fn grid_columns(rows: &[[f32; 3]; 3], gr: &NodeGrid) -> [[f32; 3]; 3] {
 }
 
 /// The corner P + cot θ·A·ẑ (see [`NodeGrid`]), normalised; the floor of
-/// |t|² rides in the first product.
+/// |t|² rides in the first product. `rows` are [`GlossyLtc::quad_rows`],
+/// whose first row has no z entry.
 #[inline(always)]
 pub fn unit_grid_vertex(rows: &[[f32; 3]; 3], cot: f32, p: &[f32; 3]) -> Vec3 {
+    debug_assert_eq!(rows[0][2], 0.0);
     let t = Vec3::new(
-        cot.mul_add(rows[0][2], p[0]),
+        p[0],
         cot.mul_add(rows[1][2], p[1]),
         cot.mul_add(rows[2][2], p[2]),
     );
@@ -115,9 +140,9 @@ pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
 /// lanes hold the same 12 edges and 9 corners), so both stay bit for bit.
 pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
     let gr = node_grid(cell);
-    let pc = grid_columns(&g.rows, &gr);
+    let pc = grid_columns(&g.quad_rows, &gr);
     let p: [[Vec3; 3]; 3] = std::array::from_fn(|zi| {
-        std::array::from_fn(|vi| unit_grid_vertex(&g.rows, gr.cot[zi], &pc[vi]))
+        std::array::from_fn(|vi| unit_grid_vertex(&g.quad_rows, gr.cot[zi], &pc[vi]))
     });
     // Parallel (zi, vi→vi+1) and meridian (vi, zi→zi+1) edges.
     let par = |zi: usize, vi: usize| cross_dot(p[zi][vi], p[zi][vi + 1]);

@@ -301,3 +301,23 @@ pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
     }
 }
+
+/// Bit l set where lane l is not ≥ `c` (NaN included): one compare into a
+/// mask register, where `!v.simd_ge(..)` costs a `knotw` more.
+#[inline(always)]
+pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m512, _CMP_NGE_UQ, _mm512_cmp_ps_mask, _mm512_set1_ps};
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
+        // avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            let vv: __m512 = std::mem::transmute(v);
+            _mm512_cmp_ps_mask::<_CMP_NGE_UQ>(vv, _mm512_set1_ps(c))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        (!v.simd_ge(f32x16::splat(c))).to_bitmask() as u16
+    }
+}
