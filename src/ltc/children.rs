@@ -124,29 +124,6 @@ fn guard(v: f32) -> f32 {
     }
 }
 
-/// ⌈log₂ x⌉ from the bits (a libm log2 was a twentieth of a shading
-/// point's set-up); 64 for anything not finite and positive, which keeps
-/// the deep switch off.
-fn ceil_log2(x: f64) -> i64 {
-    if !(x.is_finite() && x > 0.0) {
-        return 64;
-    }
-    let (m, e) = {
-        // Scale subnormals into the normal range first.
-        let (y, bias) = if x < f64::MIN_POSITIVE {
-            (x * 2f64.powi(64), 64)
-        } else {
-            (x, 0)
-        };
-        let b = y.to_bits();
-        (
-            b & ((1u64 << 52) - 1),
-            ((b >> 52) & 0x7ff) as i64 - 1023 - bias,
-        )
-    };
-    if m == 0 { e } else { e + 1 }
-}
-
 /// One glossy lobe, ready for cells: world → cosine-space map and weight.
 #[derive(Clone, Copy, Debug)]
 pub struct GlossyLtc {
@@ -156,10 +133,8 @@ pub struct GlossyLtc {
     pub rows: [[f32; 3]; 3],
     /// A in f64 for the reference kernel.
     pub a64: DMat3,
-    /// R·A by rows, R the rotation about the cosine-space z axis that
-    /// zeroes the first row's z entry (exactly 0): the plain-quad kernels
-    /// only need F_z and |F|, which R keeps, and their corner map saves an
-    /// operation on it.
+    /// A turned about the cosine-space z axis for the plain-quad kernels
+    /// ([`super::quad::quad_rows`]).
     pub quad_rows: [[f32; 3]; 3],
     /// sign(det A): a mirror flips the winding of the transformed cells.
     pub orientation: f32,
@@ -188,30 +163,18 @@ impl GlossyLtc {
         let kappa =
             (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
                 .sqrt();
-        let deep_depth =
-            ceil_log2(2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64)
-                .clamp(1, 64) as u32;
+        let deep_depth = super::fast_math::ceil_log2(
+            2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64,
+        )
+        .clamp(1, 64) as u32;
         let r = a.transpose();
         let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
         let orientation = if det < 0.0 { -1.0 } else { 1.0 };
-        let (a0, a1) = (r.col(0), r.col(1));
-        let hyp = a0.z.hypot(a1.z);
-        let (c, s) = if hyp > 0.0 {
-            (a1.z / hyp, a0.z / hyp)
-        } else {
-            (1.0, 0.0)
-        };
-        let (q0, q1) = (a0 * c - a1 * s, a0 * s + a1 * c);
-        let quad_rows = [
-            [q0.x as f32, q0.y as f32, 0.0],
-            [q1.x as f32, q1.y as f32, q1.z as f32],
-            row(2),
-        ];
         GlossyLtc {
             weight,
             rows: [row(0), row(1), row(2)],
             a64: a,
-            quad_rows,
+            quad_rows: super::quad::quad_rows(&a),
             orientation,
             det_abs: det.abs() as f32,
             quarter_scale: orientation * (0.5 / PI) * 0.25,
@@ -638,20 +601,5 @@ impl ShadingLtc {
             form_factor::children_form_factors_f32(cell)
         };
         f.map(|f| clipped_integral(f.dot(self.normal), f.length_squared()))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn ceil_log2_matches_libm() {
-        for x in [
-            1e-300, 1e-310, 0.3, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 1e10, 7.999,
-        ] {
-            assert_eq!(super::ceil_log2(x), x.log2().ceil() as i64, "{x}");
-        }
-        for x in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert_eq!(super::ceil_log2(x), 64);
-        }
     }
 }

@@ -278,9 +278,62 @@ pub fn cell_solid_angle(depth: u32) -> f32 {
     (4.0 * std::f32::consts::PI) * scale
 }
 
+/// ⌈log₂ x⌉ from the bits (a libm log2 was a twentieth of a shading
+/// point's set-up); 64 for anything not finite and positive, which keeps
+/// the deep switch off.
+pub fn ceil_log2(x: f64) -> i64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 64;
+    }
+    let (m, e) = {
+        // Scale subnormals into the normal range first.
+        let (y, bias) = if x < f64::MIN_POSITIVE {
+            (x * 2f64.powi(64), 64)
+        } else {
+            (x, 0)
+        };
+        let b = y.to_bits();
+        (
+            b & ((1u64 << 52) - 1),
+            ((b >> 52) & 0x7ff) as i64 - 1023 - bias,
+        )
+    };
+    if m == 0 { e } else { e + 1 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ceil_log2_matches_libm() {
+        for x in [
+            1e-300, 1e-310, 0.3, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 1e10, 7.999,
+        ] {
+            assert_eq!(ceil_log2(x), x.log2().ceil() as i64, "{x}");
+        }
+        for x in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(ceil_log2(x), 64);
+        }
+    }
+
+    #[test]
+    fn short_theta_over_sin_matches_acos() {
+        let mut worst = 0.0f64;
+        for i in 0..=20000 {
+            let d =
+                SHORT_EDGE_MIN_COS as f64 + (1.0 - SHORT_EDGE_MIN_COS as f64) * i as f64 / 20000.0;
+            let d = d as f32 as f64;
+            let want = if d < 1.0 {
+                d.acos() / (1.0 - d * d).sqrt()
+            } else {
+                1.0
+            };
+            let got = theta_over_sin_short(d as f32) as f64;
+            worst = worst.max((got - want).abs() / want);
+        }
+        assert!(worst < 6e-7, "{worst}");
+    }
 
     #[test]
     fn theta_over_sin_matches_acos() {

@@ -8,6 +8,13 @@
 //! division, and (a×b) keeps the accuracy of short edges (θ/sin θ → 1 is
 //! flat there). [`super::quad_x16`] evaluates the same 16 child edges with
 //! the same operations, one lane each, so both agree bit for bit.
+//!
+//! Three freedoms make the corner map cheap, all exact for the result:
+//! a corner is only needed as a direction (so (cos φ, sin φ, cot θ), see
+//! [`NodeGrid`]); F_z and |F|, all the kernels use, do not change under a
+//! turn about the cosine-space z axis (so [`quad_rows`] has a zero); and
+//! past level ~6 every edge of a node is short (so θ/sin θ is a cubic,
+//! [`super::fast_math::theta_over_sin_short`]).
 
 use super::children::{GlossyLtc, HorizonSide, child_grid};
 use super::fast_math::{
@@ -17,6 +24,27 @@ use super::fast_math::{
 use super::polygon::transform_rows;
 use crate::directional::Cell;
 use glam::Vec3;
+
+/// R·A by rows (f32), R the turn about the cosine-space z axis that makes
+/// the first row's z entry exactly 0: the corner map then needs no
+/// operation for it. The plain-quad kernels use F_z and |F| only, which R
+/// keeps (the horizon row is A's own).
+pub fn quad_rows(a: &glam::DMat3) -> [[f32; 3]; 3] {
+    let r = a.transpose();
+    let (a0, a1, a2) = (r.col(0), r.col(1), r.col(2));
+    let hyp = a0.z.hypot(a1.z);
+    let (c, s) = if hyp > 0.0 {
+        (a1.z / hyp, a0.z / hyp)
+    } else {
+        (1.0, 0.0)
+    };
+    let (q0, q1) = (a0 * c - a1 * s, a0 * s + a1 * c);
+    [
+        [q0.x as f32, q0.y as f32, 0.0],
+        [q1.x as f32, q1.y as f32, q1.z as f32],
+        [a2.x as f32, a2.y as f32, a2.z as f32],
+    ]
+}
 
 /// Floor of r² = (1 − z)(1 + z) before the cotangent divides by r: only
 /// the poles (r = 0) see it — the smallest other r², at depth 22, is
