@@ -55,12 +55,12 @@ pub const THETA_OVER_SIN_SHORT: [f32; 4] = [
     -6.8725638092e-02,
 ];
 
-/// θ/sin θ for d ∈ [[`SHORT_EDGE_MIN_COS`], 1] (Horner: the kernels are
-/// throughput-bound, and Estrin would cost 2 more operations).
+/// θ/sin θ for d ∈ [[`SHORT_EDGE_MIN_COS`], 1], in Estrin's form (one
+/// operation more than Horner's, two steps of latency fewer).
 #[inline(always)]
 pub fn theta_over_sin_short<T: PolyLane>(d: T) -> T {
     let c = THETA_OVER_SIN_SHORT.map(T::splat);
-    c[3].fma(d, c[2]).fma(d, c[1]).fma(d, c[0])
+    c[3].fma(d, c[2]).fma(d * d, c[1].fma(d, c[0]))
 }
 
 /// Floor of the arguments of [`rsqrt`]: keeps a zero vertex or a zero
@@ -205,7 +205,9 @@ struct SinCosTables {
     step: [(f32, f32); DYADIC_BITS as usize + 1],
 }
 
-static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
+// Held in the static itself, not boxed: a box would put one more
+// dependent load before every table read on the kernels' critical path.
+static TABLES: LazyLock<SinCosTables> = LazyLock::new(|| {
     let entry = |turns: f64| {
         let (s, c) = (2.0 * std::f64::consts::PI * turns).sin_cos();
         [s as f32, c as f32]
@@ -219,7 +221,7 @@ static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
     for d in 0..=DYADIC_BITS {
         t.step[d as usize] = table_sincos(&t, 1, d);
     }
-    Box::new(t)
+    t
 });
 
 /// Forces the tables (otherwise built on first use).
@@ -242,7 +244,7 @@ pub fn dyadic_sincos(n: u64, depth: u32) -> (f32, f32) {
 #[inline(always)]
 pub fn dyadic_entries(n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
     debug_assert!(depth <= DYADIC_BITS);
-    let tab = &**TABLES;
+    let tab = &*TABLES;
     let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
     (tab.hi[t >> TABLE_BITS], tab.lo[t & ((1 << TABLE_BITS) - 1)])
 }

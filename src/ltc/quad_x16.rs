@@ -103,8 +103,8 @@ struct DepthLanes {
     four_h: f32,
 }
 
-static DEPTH_LANES: LazyLock<Box<[DepthLanes]>> =
-    LazyLock::new(|| (0..=DYADIC_BITS).map(depth_lanes).collect());
+static DEPTH_LANES: LazyLock<[DepthLanes; DYADIC_BITS as usize + 1]> =
+    LazyLock::new(|| std::array::from_fn(|d| depth_lanes(d as u32)));
 
 fn depth_lanes(d: u32) -> DepthLanes {
     let (ss, cs) = step_sincos(d);
@@ -178,7 +178,7 @@ fn past_the_tables(g: &GlossyLtc, depth: u32, ix: u32, iy: u32) -> [f32; 4] {
 }
 
 /// [`THETA_OVER_SIN_SHORT`] for the cosine times 4 (exact powers of 2, so
-/// Horner's steps are the scalar's times 4, 16, 64, 1 exactly).
+/// every step of the polynomial is the scalar's times a power of 2 exactly).
 const SHORT_BY_4: [f32; 4] = [
     THETA_OVER_SIN_SHORT[0],
     THETA_OVER_SIN_SHORT[1] / 4.0,
@@ -203,7 +203,9 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         // Every child above the horizon and every edge short (the scalar
         // kernel's `short_node`): F_z is the integral.
         let c = SHORT_BY_4.map(splat);
-        let k = c[3].mul_add(d4, c[2]).mul_add(d4, c[1]).mul_add(d4, c[0]);
+        let k = c[3]
+            .mul_add(d4, c[2])
+            .mul_add(d4 * d4, c[1].mul_add(d4, c[0]));
         let f = block_sums(cz4 * k) * f32x4::splat(g.quarter_scale);
         return f.fast_max(f32x4::splat(0.0)).to_array();
     }
