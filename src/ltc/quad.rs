@@ -195,13 +195,30 @@ pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSi
             .chain(&me)
             .flatten()
             .all(|&(_, d)| d >= SHORT_EDGE_MIN_COS);
+    if short_node {
+        // F_z only, each child's 4 edges in its own direction with a fused
+        // (a×b)_z (the wide kernel's lanes): an interior edge's two terms
+        // then differ by a rounding, which the children's sum does not see
+        // at f32 precision.
+        let cz = |a: Vec3, b: Vec3| a.x.mul_add(b.y, -(a.y * b.x));
+        let sums = std::array::from_fn(|k| {
+            let (iu, iv) = (k & 1, k >> 1);
+            let c = [p[iu][iv], p[iu][iv + 1], p[iu + 1][iv + 1], p[iu + 1][iv]];
+            let d = [
+                pe[iu][iv].1,
+                me[iv + 1][iu].1,
+                pe[iu + 1][iv].1,
+                me[iv][iu].1,
+            ];
+            let e: [f32; 4] =
+                std::array::from_fn(|e| cz(c[e], c[(e + 1) % 4]) * theta_over_sin_short(d[e]));
+            Vec3::new(0.0, 0.0, (e[0] + e[1]) + (e[2] + e[3]))
+        });
+        return (sums, sides);
+    }
     let full = sides.contains(&HorizonSide::Crossing);
     let term = |(c, d): (Vec3, f32)| {
-        let k = if short_node {
-            theta_over_sin_short(d)
-        } else {
-            theta_over_sin(d, || c.z.mul_add(c.z, c.y.mul_add(c.y, c.x * c.x)))
-        };
+        let k = theta_over_sin(d, || c.z.mul_add(c.z, c.y.mul_add(c.y, c.x * c.x)));
         if full {
             c * k
         } else {

@@ -30,8 +30,8 @@ use super::fast_math::{
 };
 use super::quad::{POLE_R2_FLOOR, quad_children_scalar};
 use super::simd::{
-    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, not_ge_mask, shuffle_blocks, splat,
-    spread4, unit_edges_z,
+    BLOCK_OF_EDGE, block_sums, broadcast_load, broadcast_load4, cross_xy, edge_end_blocks,
+    not_ge_mask, shuffle_blocks, splat, spread4, unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -150,11 +150,12 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     // P(φ) + cot θ·A·ẑ, as the scalar `grid_columns` and `unit_grid_vertex`
     // (the first of the quad rows has no z entry).
     let rw = &g.quad_rows;
-    let p = |i: usize| splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
+    let at = |i: usize, j: usize| broadcast_load(&rw[i][j]);
+    let p = |i: usize| at(i, 1).mul_add(s, at(i, 0) * c);
     let t = [
         p(0),
-        cot.mul_add(splat(rw[1][2]), p(1)),
-        cot.mul_add(splat(rw[2][2]), p(2)),
+        cot.mul_add(at(1, 2), p(1)),
+        cot.mul_add(at(2, 2), p(2)),
     ];
     let n2 = t[2].mul_add(
         t[2],
@@ -193,23 +194,24 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         return past_the_tables(g, cell.depth, cell.ix, cell.iy);
     }
     let (a, b) = edge_ends(g, cell);
-    // 4·(a×b)_z and 4·a·b of the scalar's unit vectors.
-    let cz4 = a[0] * b[1] - a[1] * b[0];
+    // 4·a·b of the scalar's unit vectors.
     let d4 = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
     // Every corner is some lane's edge start; NaN fails both tests.
     let below = not_ge_mask(a[2], 0.0);
     let long = not_ge_mask(d4, 4.0 * SHORT_EDGE_MIN_COS);
     if below | long == 0 {
         // Every child above the horizon and every edge short (the scalar
-        // kernel's `short_node`): F_z is the integral.
+        // kernel's `short_node`): F_z is the integral, with 4·(a×b)_z fused.
+        let cz4 = a[0].mul_add(b[1], -(a[1] * b[0]));
         let c = SHORT_BY_4.map(splat);
         let k = c[3]
             .mul_add(d4, c[2])
             .mul_add(d4 * d4, c[1].mul_add(d4, c[0]));
-        let f = block_sums(cz4 * k) * f32x4::splat(g.quarter_scale);
+        let f = block_sums(cz4 * k) * broadcast_load4(&g.quarter_scale);
         return f.fast_max(f32x4::splat(0.0)).to_array();
     }
     if below == 0 {
+        let cz4 = a[0] * b[1] - a[1] * b[0];
         let (cz, d) = (cz4 * splat(0.25), d4 * splat(0.25));
         let k = theta_over_sin_x16(d, || {
             let (cx, cy) = cross_xy(&a, &b);

@@ -321,3 +321,53 @@ pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
         (!v.simd_ge(f32x16::splat(c))).to_bitmask() as u16
     }
 }
+
+/// `*p` in all 16 lanes by a broadcast load (a load-port micro-op, no ALU
+/// slot). Left to itself LLVM merges neighbouring fields of `GlossyLtc`
+/// into 8-byte loads and splits them again with shifts and register
+/// broadcasts (two ALU micro-ops each): 7 slots in the plain-quad kernel.
+#[inline(always)]
+pub fn broadcast_load(p: &f32) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        let v: std::arch::x86_64::__m512;
+        // SAFETY: `p` is a valid &f32 and the instruction reads its 4
+        // bytes only; avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            std::arch::asm!(
+                "vbroadcastss {v}, dword ptr [{p}]",
+                v = out(zmm_reg) v,
+                p = in(reg) p,
+                options(pure, readonly, nostack, preserves_flags)
+            );
+            std::mem::transmute(v)
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        f32x16::splat(*p)
+    }
+}
+
+/// [`broadcast_load`] into 4 lanes.
+#[inline(always)]
+pub fn broadcast_load4(p: &f32) -> wide::f32x4 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        let v: std::arch::x86_64::__m128;
+        // SAFETY: as in `broadcast_load`.
+        unsafe {
+            std::arch::asm!(
+                "vbroadcastss {v}, dword ptr [{p}]",
+                v = out(xmm_reg) v,
+                p = in(reg) p,
+                options(pure, readonly, nostack, preserves_flags)
+            );
+            std::mem::transmute(v)
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        wide::f32x4::splat(*p)
+    }
+}
