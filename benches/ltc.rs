@@ -19,7 +19,7 @@ use ltcguide::math::Frame;
 use std::hint::black_box;
 use std::time::Duration;
 
-const LEVELS: [u32; 11] = [1, 2, 3, 4, 5, 6, 8, 10, 12, 16, 20];
+const LEVELS: [u32; 12] = [1, 2, 3, 4, 5, 6, 7, 8, 10, 12, 16, 20];
 
 fn lobes(diffuse: f32, ggx: f32, alpha: f32) -> Lobes {
     Lobes {

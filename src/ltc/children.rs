@@ -124,29 +124,6 @@ fn guard(v: f32) -> f32 {
     }
 }
 
-/// ⌈log₂ x⌉ from the bits (a libm log2 was a twentieth of a shading
-/// point's set-up); 64 for anything not finite and positive, which keeps
-/// the deep switch off.
-fn ceil_log2(x: f64) -> i64 {
-    if !(x.is_finite() && x > 0.0) {
-        return 64;
-    }
-    let (m, e) = {
-        // Scale subnormals into the normal range first.
-        let (y, bias) = if x < f64::MIN_POSITIVE {
-            (x * 2f64.powi(64), 64)
-        } else {
-            (x, 0)
-        };
-        let b = y.to_bits();
-        (
-            b & ((1u64 << 52) - 1),
-            ((b >> 52) & 0x7ff) as i64 - 1023 - bias,
-        )
-    };
-    if m == 0 { e } else { e + 1 }
-}
-
 /// One glossy lobe, ready for cells: world → cosine-space map and weight.
 #[derive(Clone, Copy, Debug)]
 pub struct GlossyLtc {
@@ -156,10 +133,16 @@ pub struct GlossyLtc {
     pub rows: [[f32; 3]; 3],
     /// A in f64 for the reference kernel.
     pub a64: DMat3,
+    /// A turned about the cosine-space z axis for the plain-quad kernels
+    /// ([`super::quad::quad_rows`]).
+    pub quad_rows: [[f32; 3]; 3],
     /// sign(det A): a mirror flips the winding of the transformed cells.
     pub orientation: f32,
     /// |det A|, the Jacobian factor of the density.
     pub det_abs: f32,
+    /// orientation/2π ÷ 4: the wide plain-quad kernel's edge sums come from
+    /// vertices of length 2 (its Newton step skips a halving), so 4× F.
+    pub quarter_scale: f32,
     /// Children at this depth or deeper use density × solid angle: the
     /// first depth where a cell (2π/2^d wide), magnified by ‖A‖_F, is
     /// smaller than the deep cell size.
@@ -180,17 +163,21 @@ impl GlossyLtc {
         let kappa =
             (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
                 .sqrt();
-        let deep_depth =
-            ceil_log2(2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64)
-                .clamp(1, 64) as u32;
+        let deep_depth = super::fast_math::ceil_log2(
+            2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64,
+        )
+        .clamp(1, 64) as u32;
         let r = a.transpose();
         let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
+        let orientation = if det < 0.0 { -1.0 } else { 1.0 };
         GlossyLtc {
             weight,
             rows: [row(0), row(1), row(2)],
             a64: a,
-            orientation: if det < 0.0 { -1.0 } else { 1.0 },
+            quad_rows: super::quad::quad_rows(&a),
+            orientation,
             det_abs: det.abs() as f32,
+            quarter_scale: orientation * (0.5 / PI) * 0.25,
             deep_depth,
             plain_quad_depth: opts
                 .plain_quad_depth
@@ -415,8 +402,10 @@ impl ShadingLtc {
             weight: 0.0,
             rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             a64: DMat3::IDENTITY,
+            quad_rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             orientation: 1.0,
             det_abs: 1.0,
+            quarter_scale: 0.125 / PI,
             deep_depth: 64,
             plain_quad_depth: FIRST_PLAIN_QUAD_DEPTH,
             exact_crossing_depth: EXACT_CROSSING_DEPTH,
@@ -612,20 +601,5 @@ impl ShadingLtc {
             form_factor::children_form_factors_f32(cell)
         };
         f.map(|f| clipped_integral(f.dot(self.normal), f.length_squared()))
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn ceil_log2_matches_libm() {
-        for x in [
-            1e-300, 1e-310, 0.3, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 1e10, 7.999,
-        ] {
-            assert_eq!(super::ceil_log2(x), x.log2().ceil() as i64, "{x}");
-        }
-        for x in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert_eq!(super::ceil_log2(x), 64);
-        }
     }
 }

@@ -36,6 +36,33 @@ pub const THETA_OVER_SIN: [f32; 8] = [
     -2.7081303298e-02,
 ];
 
+/// Smallest cosine of an edge that [`THETA_OVER_SIN_SHORT`] covers (edges
+/// up to 36.9°): every edge of a plain-quad node past level ~6 of a sharp
+/// lobe, and all of them deeper.
+pub const SHORT_EDGE_MIN_COS: f32 = 0.8;
+
+/// θ/sin θ ≈ Σ c_k·d^k on d = cos θ ∈ [0.8, 1]: Chebyshev interpolant of
+/// degree 3 rounded to f32, relative error 4.8e-7 in f32 Horner (the
+/// degree-7 [`THETA_OVER_SIN`]'s is 4.7e-7). The function is analytic far
+/// beyond the interval (its branch point is at d = −1), so 3 fused
+/// operations suffice where the full range needs 9: the plain-quad kernels
+/// take it when every edge of a node is this short.
+#[allow(clippy::excessive_precision)] // printed from the fit
+pub const THETA_OVER_SIN_SHORT: [f32; 4] = [
+    1.5339473486e+00,
+    -8.0322659016e-01,
+    3.3800449967e-01,
+    -6.8725638092e-02,
+];
+
+/// θ/sin θ for d ∈ [[`SHORT_EDGE_MIN_COS`], 1], in Estrin's form (one
+/// operation more than Horner's, two steps of latency fewer).
+#[inline(always)]
+pub fn theta_over_sin_short<T: PolyLane>(d: T) -> T {
+    let c = THETA_OVER_SIN_SHORT.map(T::splat);
+    c[3].fma(d, c[2]).fma(d * d, c[1].fma(d, c[0]))
+}
+
 /// Floor of the arguments of [`rsqrt`]: keeps a zero vertex or a zero
 /// cross product finite (its products with 0 then stay exactly 0).
 pub const RSQRT_FLOOR: f32 = 1e-30;
@@ -59,11 +86,12 @@ pub fn rsqrt(x: f32) -> f32 {
     y * (-hx).mul_add(y * y, 1.5)
 }
 
-/// [`rsqrt`] on 16 lanes.
+/// The hardware estimate of 1/√x on 16 lanes (relative error < 2⁻¹⁴), the
+/// one [`rsqrt`] refines.
 #[inline(always)]
-pub fn rsqrt_x16(x: f32x16) -> f32x16 {
+pub fn rsqrt14_x16(x: f32x16) -> f32x16 {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
-    let y: f32x16 = {
+    {
         use std::arch::x86_64::{__m512, _mm512_rsqrt14_ps};
         // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
         // avx512f is enabled at compile time (the cfg above).
@@ -71,9 +99,17 @@ pub fn rsqrt_x16(x: f32x16) -> f32x16 {
             let v: __m512 = std::mem::transmute(x);
             std::mem::transmute(_mm512_rsqrt14_ps(v))
         }
-    };
+    }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "avx512f")))]
-    let y = f32x16::splat(1.0) / x.sqrt();
+    {
+        f32x16::splat(1.0) / x.sqrt()
+    }
+}
+
+/// [`rsqrt`] on 16 lanes.
+#[inline(always)]
+pub fn rsqrt_x16(x: f32x16) -> f32x16 {
+    let y = rsqrt14_x16(x);
     let hx = f32x16::splat(0.5) * x;
     y * (-hx).mul_add(y * y, f32x16::splat(1.5))
 }
@@ -169,7 +205,9 @@ struct SinCosTables {
     step: [(f32, f32); DYADIC_BITS as usize + 1],
 }
 
-static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
+// Held in the static itself, not boxed: a box would put one more
+// dependent load before every table read on the kernels' critical path.
+static TABLES: LazyLock<SinCosTables> = LazyLock::new(|| {
     let entry = |turns: f64| {
         let (s, c) = (2.0 * std::f64::consts::PI * turns).sin_cos();
         [s as f32, c as f32]
@@ -183,7 +221,7 @@ static TABLES: LazyLock<Box<SinCosTables>> = LazyLock::new(|| {
     for d in 0..=DYADIC_BITS {
         t.step[d as usize] = table_sincos(&t, 1, d);
     }
-    Box::new(t)
+    t
 });
 
 /// Forces the tables (otherwise built on first use).
@@ -199,6 +237,16 @@ pub fn dyadic_sincos(n: u64, depth: u32) -> (f32, f32) {
         return deeper_sincos(n, depth);
     }
     table_sincos(&TABLES, n, depth)
+}
+
+/// The two table entries behind [`dyadic_sincos`]`(n, depth)` (depth ≤
+/// [`DYADIC_BITS`]): [sin, cos] of its high and of its low part.
+#[inline(always)]
+pub fn dyadic_entries(n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
+    debug_assert!(depth <= DYADIC_BITS);
+    let tab = &*TABLES;
+    let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
+    (tab.hi[t >> TABLE_BITS], tab.lo[t & ((1 << TABLE_BITS) - 1)])
 }
 
 #[inline(always)]
@@ -232,9 +280,62 @@ pub fn cell_solid_angle(depth: u32) -> f32 {
     (4.0 * std::f32::consts::PI) * scale
 }
 
+/// ⌈log₂ x⌉ from the bits (a libm log2 was a twentieth of a shading
+/// point's set-up); 64 for anything not finite and positive, which keeps
+/// the deep switch off.
+pub fn ceil_log2(x: f64) -> i64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 64;
+    }
+    let (m, e) = {
+        // Scale subnormals into the normal range first.
+        let (y, bias) = if x < f64::MIN_POSITIVE {
+            (x * 2f64.powi(64), 64)
+        } else {
+            (x, 0)
+        };
+        let b = y.to_bits();
+        (
+            b & ((1u64 << 52) - 1),
+            ((b >> 52) & 0x7ff) as i64 - 1023 - bias,
+        )
+    };
+    if m == 0 { e } else { e + 1 }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ceil_log2_matches_libm() {
+        for x in [
+            1e-300, 1e-310, 0.3, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 1e10, 7.999,
+        ] {
+            assert_eq!(ceil_log2(x), x.log2().ceil() as i64, "{x}");
+        }
+        for x in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(ceil_log2(x), 64);
+        }
+    }
+
+    #[test]
+    fn short_theta_over_sin_matches_acos() {
+        let mut worst = 0.0f64;
+        for i in 0..=20000 {
+            let d =
+                SHORT_EDGE_MIN_COS as f64 + (1.0 - SHORT_EDGE_MIN_COS as f64) * i as f64 / 20000.0;
+            let d = d as f32 as f64;
+            let want = if d < 1.0 {
+                d.acos() / (1.0 - d * d).sqrt()
+            } else {
+                1.0
+            };
+            let got = theta_over_sin_short(d as f32) as f64;
+            worst = worst.max((got - want).abs() / want);
+        }
+        assert!(worst < 6e-7, "{worst}");
+    }
 
     #[test]
     fn theta_over_sin_matches_acos() {

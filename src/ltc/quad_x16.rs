@@ -12,16 +12,32 @@
 //! per-child sums (e0 + e1) + (e2 + e3) — the scalar order — are then two
 //! block additions (upper 256 bits onto lower, upper 128 onto lower) that
 //! leave the 4 children in one f32x4, and the edge ends a block rotation.
+//!
+//! The kernel is throughput-bound (two independent nodes per call run no
+//! faster per node), so what counts is issue slots on the two ports that
+//! take vector operations while zmm ones are in flight (xmm included): per
+//! node, on the short-edge path, 43 zmm and 16 xmm arithmetic operations
+//! (66 and 17 before this layout), the rest loads. Quantities with 3
+//! distinct values per node (heights) are formed 4 wide and spread by one
+//! permutation, depth-only lane constants and table entries are loaded,
+//! never formed or broadcast from registers, and the vertices are kept at
+//! length 2 to spare the Newton step's halving (powers of 2 are exact, so
+//! the result is still the scalar's bit for bit).
 
 use super::children::{GlossyLtc, HorizonSide};
-use super::fast_math::{dyadic_sincos, step_sincos};
+use super::fast_math::{
+    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, THETA_OVER_SIN_SHORT, dyadic_entries,
+    rsqrt14_x16, step_sincos, theta_over_sin_x16,
+};
+use super::quad::{POLE_R2_FLOOR, quad_children_scalar};
 use super::simd::{
-    BLOCK_OF_EDGE, block_sums, cross_xy, edge_end_blocks, heights_and_radii, normalise,
-    rotated_sincos, shuffle_blocks, splat, unit_edges_z,
+    BLOCK_OF_EDGE, block_sums, broadcast_load, broadcast_load4, cross_xy, edge_end_blocks,
+    not_ge_mask, shuffle_blocks, splat, spread4, unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
-use wide::{f32x4, f32x16};
+use std::sync::LazyLock;
+use wide::{f32x4, f32x16, i32x4};
 
 /// Block order taking edge starts to edge ends.
 const END_BLOCKS: i32 = edge_end_blocks(4);
@@ -64,42 +80,149 @@ const fn child_lanes() -> [u32; 4] {
 }
 const CHILD_LANES: [u32; 4] = child_lanes();
 
-/// Edge starts and ends (unit vectors in the lobe's cosine space) of the
-/// 16 lanes: the scalar kernel's `node_grid` and `unit_grid_vertex`, lane by
-/// lane.
+/// [`START_HEIGHT`] as permutation indices.
+const START_HEIGHT_INDEX: [i32; 16] = {
+    let mut t = [0i32; 16];
+    let mut l = 0;
+    while l < 16 {
+        t[l] = START_HEIGHT[l] as i32;
+        l += 1;
+    }
+    t
+};
+
+/// Per child depth, the lane constants that only depend on the depth: the
+/// rotation of each lane's azimuth from the node's centre meridian, cos
+/// (exactly 1 on the centre) and sin (side × sin of a child's width), as
+/// [`super::simd::rotated_sincos`] forms them, and 2h·j of the grid heights
+/// j = 0, 1, 2 (h the child's height in u) with 4h, the node's height.
+/// Loaded rather than formed, they cost no issue slots.
+struct DepthLanes {
+    cos_off: [f32; 16],
+    sin_off: [f32; 16],
+    two_h_j: [f32; 4],
+    four_h: f32,
+}
+
+static DEPTH_LANES: LazyLock<[DepthLanes; DYADIC_BITS as usize + 1]> =
+    LazyLock::new(|| std::array::from_fn(|d| depth_lanes(d as u32)));
+
+fn depth_lanes(d: u32) -> DepthLanes {
+    let (ss, cs) = step_sincos(d);
+    let two_h = 2.0 / (1u64 << d.min(63)) as f32;
+    DepthLanes {
+        cos_off: START_SIDE.map(|s| if s == 0.0 { 1.0 } else { cs }),
+        sin_off: START_SIDE.map(|s| s * ss),
+        two_h_j: [0.0, two_h, 2.0 * two_h, 0.0],
+        four_h: 2.0 * two_h,
+    }
+}
+
+/// Edge starts and ends in the lobe's cosine space, of length 2, of the 16
+/// lanes: twice the scalar kernel's `node_grid` corners through
+/// `unit_grid_vertex`, lane by lane. The 3 heights and cotangents are
+/// formed 4 wide and spread: with M = ix·4h + j·2h = (u + j)·2h (exact,
+/// u = 2·ix as in the scalar `child_grid`), z = M − 1 and
+/// 1 ∓ z = 2 − M, M exactly, so these are the scalar's values bit for bit.
+/// The Newton step of 1/|t| is y·(3 − |t|²y²), twice the scalar's
+/// y·(1.5 − ½|t|²y²) exactly (one multiplication fewer), so every vertex is
+/// exactly twice the scalar's, and cross and dot products 4 times.
 #[inline(always)]
 fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let d = cell.depth + 1;
-    let h = 1.0 / (1u64 << d) as f32;
-    let (z, r) = heights_and_radii(2 * cell.ix, h, f32x16::from(START_HEIGHT));
-    let (s, c) = rotated_sincos(
-        dyadic_sincos(2 * cell.iy as u64 + 1, d),
-        step_sincos(d),
-        f32x16::from(START_SIDE),
+    let lanes = &DEPTH_LANES[d as usize];
+    // `u` (< 2^24, so exact in f32) converted lane-wise: see
+    // `heights_and_radii` on why not a scalar conversion.
+    let ix = i32x4::splat(cell.ix as i32).round_float();
+    let m = ix.mul_add(f32x4::splat(lanes.four_h), f32x4::from(lanes.two_h_j));
+    let zq = m - f32x4::splat(1.0);
+    let cot = zq
+        / (f32x4::splat(2.0) - m)
+            .mul_add(m, f32x4::splat(POLE_R2_FLOOR))
+            .sqrt();
+    let cot = spread4(cot, &START_HEIGHT_INDEX);
+    // The scalar `rotate_by_entries`, lane by lane, the entries broadcast
+    // from memory: no scalar arithmetic, no register broadcasts.
+    let ([sh, ch], [sl, cl]) = dyadic_entries(2 * cell.iy as u64 + 1, d);
+    let (co, so) = (f32x16::from(lanes.cos_off), f32x16::from(lanes.sin_off));
+    let (sh, ch, sl, cl) = (splat(sh), splat(ch), splat(sl), splat(cl));
+    let (ec, es) = (cl.mul_add(co, -(sl * so)), sl.mul_add(co, cl * so));
+    let (s, c) = (sh.mul_add(ec, ch * es), ch.mul_add(ec, -(sh * es)));
+    // P(φ) + cot θ·A·ẑ, as the scalar `grid_columns` and `unit_grid_vertex`
+    // (the first of the quad rows has no z entry).
+    let rw = &g.quad_rows;
+    let at = |i: usize, j: usize| broadcast_load(&rw[i][j]);
+    let p = |i: usize| at(i, 1).mul_add(s, at(i, 0) * c);
+    let t = [
+        p(0),
+        cot.mul_add(at(1, 2), p(1)),
+        cot.mul_add(at(2, 2), p(2)),
+    ];
+    let n2 = t[2].mul_add(
+        t[2],
+        t[1].mul_add(t[1], t[0].mul_add(t[0], splat(RSQRT_FLOOR))),
     );
-    // r·P(φ) + Q(z), as the scalar `grid_columns` and `unit_grid_vertex`.
-    let rw = &g.rows;
-    let col = |i: usize| splat(rw[i][1]).mul_add(s, splat(rw[i][0]) * c);
-    let t = [0, 1, 2].map(|i| r.mul_add(col(i), splat(rw[i][2]) * z));
-    let a = normalise(t);
+    let y = rsqrt14_x16(n2);
+    let inv2 = y * (-n2).mul_add(y * y, splat(3.0));
+    let a = t.map(|v| v * inv2);
     let b = a.map(shuffle_blocks::<END_BLOCKS>);
     (a, b)
 }
 
+/// Nodes past the tables' resolution (no quadtree goes this deep): the
+/// scalar kernel.
+#[cold]
+#[inline(never)]
+fn past_the_tables(g: &GlossyLtc, depth: u32, ix: u32, iy: u32) -> [f32; 4] {
+    let cell = Cell { depth, ix, iy };
+    let (f, sides) = quad_children_scalar(g, cell);
+    g.finish_children(cell, f, sides, None)
+}
+
+/// [`THETA_OVER_SIN_SHORT`] for the cosine times 4 (exact powers of 2, so
+/// every step of the polynomial is the scalar's times a power of 2 exactly).
+const SHORT_BY_4: [f32; 4] = [
+    THETA_OVER_SIN_SHORT[0],
+    THETA_OVER_SIN_SHORT[1] / 4.0,
+    THETA_OVER_SIN_SHORT[2] / 16.0,
+    THETA_OVER_SIN_SHORT[3] / 64.0,
+];
+
 /// The 4 child integrals of a node whose children are plain quads.
 #[inline]
 pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
+    if cell.depth + 1 > DYADIC_BITS {
+        return past_the_tables(g, cell.depth, cell.ix, cell.iy);
+    }
     let (a, b) = edge_ends(g, cell);
-    // Every corner is some lane's edge start.
-    let above = a[2].simd_ge(splat(0.0));
-    let (cz, k) = unit_edges_z(&a, &b);
-    if above.all() {
-        // Every child above the horizon: F_z is the integral.
+    // 4·a·b of the scalar's unit vectors.
+    let d4 = a[2].mul_add(b[2], a[1].mul_add(b[1], a[0] * b[0]));
+    // Every corner is some lane's edge start; NaN fails both tests.
+    let below = not_ge_mask(a[2], 0.0);
+    let long = not_ge_mask(d4, 4.0 * SHORT_EDGE_MIN_COS);
+    if below | long == 0 {
+        // Every child above the horizon and every edge short (the scalar
+        // kernel's `short_node`): F_z is the integral, with 4·(a×b)_z fused.
+        let cz4 = a[0].mul_add(b[1], -(a[1] * b[0]));
+        let c = SHORT_BY_4.map(splat);
+        let k = c[3]
+            .mul_add(d4, c[2])
+            .mul_add(d4 * d4, c[1].mul_add(d4, c[0]));
+        let f = block_sums(cz4 * k) * broadcast_load4(&g.quarter_scale);
+        return f.fast_max(f32x4::splat(0.0)).to_array();
+    }
+    if below == 0 {
+        let cz4 = a[0] * b[1] - a[1] * b[0];
+        let (cz, d) = (cz4 * splat(0.25), d4 * splat(0.25));
+        let k = theta_over_sin_x16(d, || {
+            let (cx, cy) = cross_xy(&a, &b);
+            cz4.mul_add(cz4, cy.mul_add(cy, cx * cx)) * splat(1.0 / 16.0)
+        });
         let scale = g.orientation * (0.5 / std::f32::consts::PI);
         let f = (block_sums(cz * k) * f32x4::splat(scale)).fast_max(f32x4::splat(0.0));
         return f.to_array();
     }
-    below_or_across(g, cell)
+    below_or_across(g, cell.depth, cell.ix, cell.iy)
 }
 
 /// The children when some are not wholly above the horizon: out of line,
@@ -108,8 +231,13 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
 /// than have the common case spill them for it.
 #[cold]
 #[inline(never)]
-fn below_or_across(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
+fn below_or_across(g: &GlossyLtc, depth: u32, ix: u32, iy: u32) -> [f32; 4] {
+    let cell = Cell { depth, ix, iy };
+    if cell.depth + 1 > DYADIC_BITS {
+        return past_the_tables(g, cell.depth, cell.ix, cell.iy);
+    }
     let (a, b) = edge_ends(g, cell);
+    let (a, b) = (a.map(|v| v * splat(0.5)), b.map(|v| v * splat(0.5)));
     let (cz, k) = unit_edges_z(&a, &b);
     let above = a[2].simd_ge(splat(0.0)).to_bitmask();
     let below = a[2].simd_le(splat(0.0)).to_bitmask();

@@ -273,3 +273,101 @@ pub fn horizon_points(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
     let inv = rsqrt_x16(y.mul_add(y, x * x).fast_max(splat(RSQRT_FLOOR)));
     [x * inv, y * inv, splat(0.0)]
 }
+
+/// Lanes of a 4-lane vector spread over 16 by constant indices (< 4): one
+/// vpermps on AVX-512, the xmm read as the low quarter of a zmm. Per-node
+/// quantities with only 3 distinct values (heights, radii) are cheaper to
+/// compute 4 wide and spread than 16 wide, where a zmm √ costs about 8
+/// issue slots (measured against vaddps on this machine).
+#[inline(always)]
+pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m128, __m512i, _mm512_castps128_ps512, _mm512_permutexvar_ps};
+        // SAFETY: f32x4 and __m128 are both 16 bytes holding 4 f32, [i32;
+        // 16] and __m512i both 64 bytes; the indices only read the low 4
+        // lanes (the cast leaves the upper ones undefined); avx512f is
+        // enabled at compile time (the cfg above).
+        unsafe {
+            debug_assert!(idx.iter().all(|&i| (0..4).contains(&i)));
+            let vi: __m512i = std::mem::transmute(*idx);
+            let vv: __m128 = std::mem::transmute(v);
+            std::mem::transmute(_mm512_permutexvar_ps(vi, _mm512_castps128_ps512(vv)))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        let a = v.to_array();
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
+    }
+}
+
+/// Bit l set where lane l is not ≥ `c` (NaN included): one compare into a
+/// mask register, where `!v.simd_ge(..)` costs a `knotw` more.
+#[inline(always)]
+pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m512, _CMP_NGE_UQ, _mm512_cmp_ps_mask, _mm512_set1_ps};
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
+        // avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            let vv: __m512 = std::mem::transmute(v);
+            _mm512_cmp_ps_mask::<_CMP_NGE_UQ>(vv, _mm512_set1_ps(c))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        (!v.simd_ge(f32x16::splat(c))).to_bitmask() as u16
+    }
+}
+
+/// `*p` in all 16 lanes by a broadcast load (a load-port micro-op, no ALU
+/// slot). Left to itself LLVM merges neighbouring fields of `GlossyLtc`
+/// into 8-byte loads and splits them again with shifts and register
+/// broadcasts (two ALU micro-ops each): 7 slots in the plain-quad kernel.
+#[inline(always)]
+pub fn broadcast_load(p: &f32) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        let v: std::arch::x86_64::__m512;
+        // SAFETY: `p` is a valid &f32 and the instruction reads its 4
+        // bytes only; avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            std::arch::asm!(
+                "vbroadcastss {v}, dword ptr [{p}]",
+                v = out(zmm_reg) v,
+                p = in(reg) p,
+                options(pure, readonly, nostack, preserves_flags)
+            );
+            std::mem::transmute(v)
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        f32x16::splat(*p)
+    }
+}
+
+/// [`broadcast_load`] into 4 lanes.
+#[inline(always)]
+pub fn broadcast_load4(p: &f32) -> wide::f32x4 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        let v: std::arch::x86_64::__m128;
+        // SAFETY: as in `broadcast_load`.
+        unsafe {
+            std::arch::asm!(
+                "vbroadcastss {v}, dword ptr [{p}]",
+                v = out(xmm_reg) v,
+                p = in(reg) p,
+                options(pure, readonly, nostack, preserves_flags)
+            );
+            std::mem::transmute(v)
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        wide::f32x4::splat(*p)
+    }
+}
