@@ -128,7 +128,8 @@ fn build_node(cell: Cell, chord_turns: f64) -> CoarseNode {
 }
 
 /// Plain-quad depths that have a coarse table.
-const PLAIN_QUAD_DEPTHS: std::ops::RangeInclusive<u32> = EXACT_CLIP_DEPTH + 2..=FIRST_PLAIN_QUAD_DEPTH;
+const PLAIN_QUAD_DEPTHS: std::ops::RangeInclusive<u32> =
+    EXACT_CLIP_DEPTH + 2..=FIRST_PLAIN_QUAD_DEPTH;
 
 /// The table of a plain-quad depth P: the nodes whose children are coarse
 /// (depths 1..P − 1), in level order, then iy·2^d + ix, with chords of at
