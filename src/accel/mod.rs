@@ -6,6 +6,7 @@
 
 mod leaf;
 
+use crate::huge::HugeSlice;
 use glam::{Vec3, Vec3A};
 use leaf::{Ray8, SphereRef, Tri8, pack_node_leaves};
 use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, cwbvh::builder::build_cwbvh};
@@ -171,8 +172,8 @@ const STACK_SIZE: usize = 128;
 /// makes this renderer faster than the reference CPU renderer (see the
 /// closing notes for the measured ratio).
 pub struct Accel {
-    nodes: Vec<Node8>,
-    packets: Vec<Tri8>,
+    nodes: HugeSlice<Node8>,
+    packets: HugeSlice<Tri8>,
     spheres: Vec<SphereRef>,
 }
 
@@ -180,8 +181,8 @@ impl Accel {
     pub fn build(geometry: &[PrimGeom]) -> Self {
         if geometry.is_empty() {
             return Accel {
-                nodes: Vec::new(),
-                packets: Vec::new(),
+                nodes: HugeSlice::new(Vec::new()),
+                packets: HugeSlice::new(Vec::new()),
                 spheres: Vec::new(),
             };
         }
@@ -193,8 +194,8 @@ impl Accel {
         );
         let (nodes, packets, spheres) = decode_nodes(&bvh, geometry);
         Accel {
-            nodes,
-            packets,
+            nodes: HugeSlice::new(nodes),
+            packets: HugeSlice::new(packets),
             spheres,
         }
     }
