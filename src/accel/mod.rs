@@ -200,8 +200,9 @@ impl Accel {
         }
     }
 
-    /// Closest hit along o + t·d for t in (tmin, tmax).
-    #[inline]
+    /// Closest hit along o + t·d for t in (tmin, tmax). Not inlined: the
+    /// traversal is large and its callers inline the hit's interaction.
+    #[inline(never)]
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let mut best = tmax;
         let mut best_prim = u32::MAX;

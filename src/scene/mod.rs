@@ -74,6 +74,10 @@ pub struct Interaction {
 }
 
 impl Scene {
+    /// Inlined into the path loop with [`interaction`](Self::interaction):
+    /// returned through memory, the interaction was copied back in wider
+    /// loads than it had been stored in, a store-forwarding stall per ray.
+    #[inline(always)]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Interaction> {
         let hit = self.accel.closest_hit(o, d, 0.0, tmax)?;
         Some(self.interaction(o, d, hit))
@@ -88,6 +92,7 @@ impl Scene {
         self.accel.occluded_except(o, d, 0.0, tmax, light_prim)
     }
 
+    #[inline(always)]
     pub fn interaction(&self, o: Vec3, d: Vec3, hit: Hit) -> Interaction {
         let g = &self.geometry[hit.prim as usize];
         let shape = self.prim_shape[hit.prim as usize];
