@@ -9,6 +9,7 @@ pub mod emitter;
 pub mod experiment;
 pub mod film;
 pub mod guiding;
+pub mod huge;
 pub mod integrator;
 pub mod ltc;
 pub mod math;

@@ -207,6 +207,9 @@ pub struct RenderStats {
     pub spp: u32,
     pub seconds: f64,
     pub paths_per_second: f64,
+    /// CPU time of all threads during the render (snapshots included): on
+    /// a shared machine it compares builds where wall time cannot.
+    pub cpu_seconds: f64,
     pub rays_per_second: f64,
     pub threads: usize,
     pub seed: u64,
@@ -254,6 +257,19 @@ pub fn progress_bar(enabled: bool, len: u64, what: &str) -> Option<indicatif::Pr
     Some(bar)
 }
 
+/// CPU time consumed so far by every thread of the process.
+fn process_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid timespec for the call to fill in.
+    if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } != 0 {
+        return f64::NAN;
+    }
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
@@ -264,6 +280,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         plan.reasons = vec!["plan disabled".into()];
     }
     let ltc_guards_before = crate::ltc::nonfinite_guard_count();
+    let cpu_before = process_cpu_seconds();
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan {
         times: opts.snapshot_times.clone(),
@@ -330,6 +347,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         b.finish_and_clear();
     }
     let seconds = clock.seconds();
+    let cpu_seconds = process_cpu_seconds() - cpu_before;
     let mean = image.mean_rgb();
     let guards = Guards {
         image_nonfinite_samples: counters.nonfinite_samples,
@@ -350,6 +368,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         spp,
         seconds,
         paths_per_second: counters.paths as f64 / seconds.max(1e-9),
+        cpu_seconds,
         rays_per_second: (counters.rays + counters.shadow_rays) as f64 / seconds.max(1e-9),
         threads,
         seed: opts.seed,

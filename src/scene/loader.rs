@@ -12,6 +12,7 @@ use crate::accel::{Accel, PrimGeom};
 use crate::bsdf::Material;
 use crate::camera::{Camera, FovAxis};
 use crate::emitter::{EmitterTriangle, EnvMap, Light, Lights};
+use crate::huge::HugeSlice;
 use crate::math::Spectrum;
 use crate::texture::RgbImage;
 use glam::{Mat3, Mat4, Vec3};
@@ -531,10 +532,10 @@ impl<'a> Builder<'a> {
             camera: self.camera.expect("checked in scene()"),
             materials: self.materials,
             shapes,
-            geometry,
-            triangle_shading,
-            triangle_normals,
-            prim_shape,
+            geometry: HugeSlice::new(geometry),
+            triangle_shading: HugeSlice::new(triangle_shading),
+            triangle_normals: HugeSlice::new(triangle_normals),
+            prim_shape: HugeSlice::new(prim_shape),
             accel,
             lights: Lights::new(lights),
             max_depth: self.max_depth,

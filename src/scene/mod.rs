@@ -15,6 +15,7 @@ use crate::accel::{Accel, Hit, KIND_SPHERE, PrimGeom};
 use crate::bsdf::Material;
 use crate::camera::Camera;
 use crate::emitter::Lights;
+use crate::huge::HugeSlice;
 use crate::math::Frame;
 use glam::{Vec2, Vec3};
 use std::path::PathBuf;
@@ -41,14 +42,14 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub shapes: Vec<Shape>,
     /// Geometry in primitive-id order: all triangles, then all spheres.
-    pub geometry: Vec<PrimGeom>,
-    pub triangle_shading: Vec<TriangleShading>,
+    pub geometry: HugeSlice<PrimGeom>,
+    pub triangle_shading: HugeSlice<TriangleShading>,
     /// Unit geometric normal of each triangle (indexed by primitive id),
     /// computed once: per hit it was a square root and a division on the
     /// path's critical path.
-    pub triangle_normals: Vec<Vec3>,
+    pub triangle_normals: HugeSlice<Vec3>,
     /// Shape of each primitive.
-    pub prim_shape: Vec<u32>,
+    pub prim_shape: HugeSlice<u32>,
     pub accel: Accel,
     pub lights: Lights,
     /// Maximum number of path segments (Mitsuba's `max_depth`), `None` = unlimited.
@@ -73,6 +74,10 @@ pub struct Interaction {
 }
 
 impl Scene {
+    /// Inlined into the path loop with [`interaction`](Self::interaction):
+    /// returned through memory, the interaction was copied back in wider
+    /// loads than it had been stored in, a store-forwarding stall per ray.
+    #[inline(always)]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Interaction> {
         let hit = self.accel.closest_hit(o, d, 0.0, tmax)?;
         Some(self.interaction(o, d, hit))
@@ -87,6 +92,7 @@ impl Scene {
         self.accel.occluded_except(o, d, 0.0, tmax, light_prim)
     }
 
+    #[inline(always)]
     pub fn interaction(&self, o: Vec3, d: Vec3, hit: Hit) -> Interaction {
         let g = &self.geometry[hit.prim as usize];
         let shape = self.prim_shape[hit.prim as usize];

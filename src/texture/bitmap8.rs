@@ -10,6 +10,7 @@
 //! footprint then lies in one line 9 times in 16 (row-major storage needs
 //! two, one per row), and nearby lookups share lines in both directions.
 
+use crate::huge::HugeSlice;
 use crate::math::Spectrum;
 use glam::Vec2;
 
@@ -19,7 +20,7 @@ pub struct Bitmap8 {
     pub height: usize,
     /// R | G << 8 | B << 16, in 4×4 tiles (see [`tile_index`]), row 0
     /// at the top.
-    tiles: Vec<Tile>,
+    tiles: HugeSlice<Tile>,
     /// Tiles per row.
     tiles_x: usize,
     /// Linear value of each 8-bit code.
@@ -49,7 +50,7 @@ impl Bitmap8 {
         Bitmap8 {
             width,
             height,
-            tiles,
+            tiles: HugeSlice::new(tiles),
             tiles_x,
             lut,
         }
