@@ -148,6 +148,9 @@ fn build_table(plain_quad_depth: u32) -> Vec<CoarseNode> {
     v
 }
 
+// `TABLES` lists one entry per depth of `PLAIN_QUAD_DEPTHS`.
+const _: () = assert!(EXACT_CLIP_DEPTH + 2 == 3 && FIRST_PLAIN_QUAD_DEPTH == 6);
+
 /// One lazily built table per plain-quad depth (3..=6), so a run builds
 /// only the ones its options use.
 static TABLES: [LazyLock<Vec<CoarseNode>>; 4] = [
