@@ -6,6 +6,9 @@
 //!
 //! The mapping is made here rather than taken from the allocator: a large
 //! `Vec` may reuse heap pages the loader already touched, which stay small.
+//!
+//! [`prefetch`], the other half of reading such arrays at random, starts
+//! loading an element before it is needed.
 
 use std::ops::Deref;
 
@@ -127,6 +130,23 @@ impl<T: Copy + std::fmt::Debug> std::fmt::Debug for HugeSlice<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_list().entries(self.iter()).finish()
     }
+}
+
+/// Starts loading every cache line of `*p` without waiting for them.
+#[inline(always)]
+pub fn prefetch<T>(p: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let base = p as *const T as *const i8;
+        for line in 0..std::mem::size_of::<T>().div_ceil(64) {
+            // SAFETY: the address lies inside `*p`; a prefetch is a hint,
+            // it never faults and reads nothing.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(base.add(line * 64)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
 }
 
 #[cfg(test)]

@@ -360,7 +360,11 @@ impl Accel {
                 }
                 pending[k] = (node.child[slot], t);
                 n_pending += 1;
-                prefetch_node(&self.nodes[node.child[slot] as usize]);
+                // The farther children are popped only after the nearer
+                // subtrees, by when their lines have arrived. (Prefetched
+                // before the parent's leaf tests instead, the extra loop
+                // over the hit mask cost more than it hid.)
+                crate::huge::prefetch(&self.nodes[node.child[slot] as usize]);
             }
             if sp + n_pending > STACK_SIZE {
                 // Unreachable for obvhs trees (depth ≪ 16); never overflow.
@@ -395,25 +399,6 @@ impl Accel {
             self.spheres.len()
         )
     }
-}
-
-/// Starts loading a node's four cache lines. Issued as a child is pushed:
-/// the farther children are popped only after the nearer subtrees, by
-/// when their lines have arrived. (Issued before the parent's leaf tests
-/// instead, the extra loop over the hit mask cost more than it hid.)
-#[inline(always)]
-fn prefetch_node(node: &Node8) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint; it never faults and reads nothing.
-    unsafe {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let p = node as *const Node8 as *const i8;
-        for line in 0..4 {
-            _mm_prefetch::<_MM_HINT_T0>(p.add(line * 64));
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = node;
 }
 
 /// 1/d per axis, with near-zero components replaced by ±ε·10⁻⁶ so the

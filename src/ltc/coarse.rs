@@ -27,7 +27,7 @@ use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;
 use glam::Vec3;
 use std::ops::Range;
-use std::sync::LazyLock;
+use std::sync::OnceLock;
 
 /// Most edges of a node (level 2: 3 parallels × 32 chords + 6 meridian
 /// segments), rounded up to whole batches of 16.
@@ -127,9 +127,9 @@ fn build_node(cell: Cell, chord_turns: f64) -> CoarseNode {
     }
 }
 
-/// Plain-quad depths that have a coarse table.
-const PLAIN_QUAD_DEPTHS: std::ops::RangeInclusive<u32> =
-    EXACT_CLIP_DEPTH + 2..=FIRST_PLAIN_QUAD_DEPTH;
+/// The smallest plain-quad depth with coarse children (depth 2 is the
+/// first below the exactly clipped level 1).
+const FIRST_COARSE_TABLE: u32 = EXACT_CLIP_DEPTH + 2;
 
 /// The table of a plain-quad depth P: the nodes whose children are coarse
 /// (depths 1..P − 1), in level order, then iy·2^d + ix, with chords of at
@@ -148,21 +148,15 @@ fn build_table(plain_quad_depth: u32) -> Vec<CoarseNode> {
     v
 }
 
-// `TABLES` lists one entry per depth of `PLAIN_QUAD_DEPTHS`.
-const _: () = assert!(EXACT_CLIP_DEPTH + 2 == 3 && FIRST_PLAIN_QUAD_DEPTH == 6);
-
-/// One lazily built table per plain-quad depth (3..=6), so a run builds
-/// only the ones its options use.
-static TABLES: [LazyLock<Vec<CoarseNode>>; 4] = [
-    LazyLock::new(|| build_table(3)),
-    LazyLock::new(|| build_table(4)),
-    LazyLock::new(|| build_table(5)),
-    LazyLock::new(|| build_table(6)),
-];
+/// One table per plain-quad depth FIRST_COARSE_TABLE..=FIRST_PLAIN_QUAD_DEPTH,
+/// each built on first use, so a run builds only the ones its options use.
+const TABLE_COUNT: usize = (FIRST_PLAIN_QUAD_DEPTH - FIRST_COARSE_TABLE + 1) as usize;
+static TABLES: [OnceLock<Vec<CoarseNode>>; TABLE_COUNT] = [const { OnceLock::new() }; TABLE_COUNT];
 
 fn table(plain_quad_depth: u32) -> &'static [CoarseNode] {
-    debug_assert!(PLAIN_QUAD_DEPTHS.contains(&plain_quad_depth));
-    &TABLES[(plain_quad_depth - PLAIN_QUAD_DEPTHS.start()) as usize]
+    debug_assert!((FIRST_COARSE_TABLE..=FIRST_PLAIN_QUAD_DEPTH).contains(&plain_quad_depth));
+    TABLES[(plain_quad_depth - FIRST_COARSE_TABLE) as usize]
+        .get_or_init(|| build_table(plain_quad_depth))
 }
 
 /// Forces the table of the API's default options (others are built on

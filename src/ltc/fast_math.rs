@@ -244,16 +244,18 @@ pub fn dyadic_sincos(n: u64, depth: u32) -> (f32, f32) {
 #[inline(always)]
 pub fn dyadic_entries(n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
     debug_assert!(depth <= DYADIC_BITS);
-    let tab = &*TABLES;
+    table_entries(&TABLES, n, depth)
+}
+
+#[inline(always)]
+fn table_entries(tab: &SinCosTables, n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
     let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
     (tab.hi[t >> TABLE_BITS], tab.lo[t & ((1 << TABLE_BITS) - 1)])
 }
 
 #[inline(always)]
 fn table_sincos(tab: &SinCosTables, n: u64, depth: u32) -> (f32, f32) {
-    let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
-    let [sh, ch] = tab.hi[t >> TABLE_BITS];
-    let [sl, cl] = tab.lo[t & ((1 << TABLE_BITS) - 1)];
+    let ([sh, ch], [sl, cl]) = table_entries(tab, n, depth);
     (sh.mul_add(cl, ch * sl), ch.mul_add(cl, -(sh * sl)))
 }
 

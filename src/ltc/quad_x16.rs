@@ -232,10 +232,8 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
 #[cold]
 #[inline(never)]
 fn below_or_across(g: &GlossyLtc, depth: u32, ix: u32, iy: u32) -> [f32; 4] {
+    // Its one caller has already sent nodes past the tables to the scalar.
     let cell = Cell { depth, ix, iy };
-    if cell.depth + 1 > DYADIC_BITS {
-        return past_the_tables(g, cell.depth, cell.ix, cell.iy);
-    }
     let (a, b) = edge_ends(g, cell);
     let (a, b) = (a.map(|v| v * splat(0.5)), b.map(|v| v * splat(0.5)));
     let (cz, k) = unit_edges_z(&a, &b);

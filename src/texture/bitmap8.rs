@@ -83,7 +83,7 @@ impl Bitmap8 {
         };
         for (x, y) in [(x0, y0), (x1, y0), (x0, y1), (x1, y1)] {
             let tile = tile_index(self.tiles_x, x, y).0;
-            prefetch_line(&self.tiles[tile]);
+            crate::huge::prefetch(&self.tiles[tile]);
         }
     }
 
@@ -105,18 +105,6 @@ impl Bitmap8 {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 struct Tile([u32; 16]);
-
-#[inline(always)]
-fn prefetch_line<T>(p: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch is a hint; it never faults and reads nothing.
-    unsafe {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        _mm_prefetch::<_MM_HINT_T0>(p as *const T as *const i8);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
-}
 
 /// (tile, index in the tile) of texel (x, y) with `tiles_x` tiles per row.
 #[inline(always)]
