@@ -50,6 +50,12 @@ fn bench(c: &mut Criterion) {
     let glossy = ShadingLtc::new(&lobes(0.0, 1.0, 0.1), &frame, wo, &table, &opts);
     let diffuse = ShadingLtc::new(&lobes(1.0, 0.0, 1.0), &frame, wo, &table, &opts);
     let g = glossy.glossy[0];
+    // The same lobe with Stokes quadrature along coarse parallels.
+    let stokes_opts = LtcOptions {
+        stokes_parallels: true,
+        ..opts
+    };
+    let gs = ShadingLtc::new(&lobes(0.0, 1.0, 0.1), &frame, wo, &table, &stokes_opts).glossy[0];
     let peak = {
         let m = g.a64.inverse() * glam::DVec3::Z;
         m.normalize().as_vec3()
@@ -70,6 +76,18 @@ fn bench(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("children_x16", level), &node, |b, &n| {
             b.iter(|| children_x16(&g, black_box(n), 99))
         });
+        if (2..=5).contains(&level) {
+            group.bench_with_input(
+                BenchmarkId::new("children_scalar_stokes", level),
+                &node,
+                |b, &n| b.iter(|| gs.children_scalar(black_box(n), 99)),
+            );
+            group.bench_with_input(
+                BenchmarkId::new("children_x16_stokes", level),
+                &node,
+                |b, &n| b.iter(|| children_x16(&gs, black_box(n), 99)),
+            );
+        }
         let dnode = node_at(diffuse.normal, level - 1);
         group.bench_with_input(
             BenchmarkId::new("children_diffuse_precomputed", level),

@@ -41,6 +41,13 @@ fn main() {
     let s = ShadingLtc::new(&lobes(0.0, 1.0), &frame, wo, &table, &opts);
     let d = ShadingLtc::new(&lobes(1.0, 0.0), &frame, wo, &table, &opts);
     let g = s.glossy[0];
+    // The same lobe with Stokes quadrature along the coarse parallels
+    // instead of chords, to compare in the same run.
+    let chord_opts = LtcOptions {
+        stokes_parallels: true,
+        ..opts
+    };
+    let gc = ShadingLtc::new(&lobes(0.0, 1.0), &frame, wo, &table, &chord_opts).glossy[0];
     let peak = (g.a64.inverse() * glam::DVec3::Z).normalize().as_vec3();
     let setup = min_ns(|| {
         black_box(ShadingLtc::new(
@@ -52,8 +59,10 @@ fn main() {
         ));
     });
     println!("ShadingLtc::new (diffuse + GGX): {setup:.1} ns");
-    println!("level | ref f64 | scalar | x16 | x16/scalar | diffuse | api simd (ns)");
-    for level in [2u32, 4, 6, 8, 10, 12, 16, 20] {
+    println!(
+        "level | ref f64 | scalar | x16 | x16/scalar | diffuse | api simd | Stokes: scalar | x16 (ns)"
+    );
+    for level in [2u32, 3, 4, 5, 6, 8, 10, 12, 16, 20] {
         let p = dir_to_square(peak);
         let n = (1u64 << (level - 1)) as f32;
         let cell = Cell {
@@ -88,9 +97,15 @@ fn main() {
         let dx = min_ns(|| {
             black_box(d.child_integrals(black_box(cell), ProductKernel::Simd));
         });
+        let csc = min_ns(|| {
+            black_box(gc.children_scalar(black_box(cell), 99));
+        });
+        let cx = min_ns(|| {
+            black_box(children_x16(&gc, black_box(cell), 99));
+        });
         print!("[quad x16 only {es:.1}, deep {deep:.1}, diffuse api simd {dx:.1}] ");
         println!(
-            "{level:>5} | {r:>7.1} | {sc:>6.1} | {x:>5.1} | {:>5.2} | {df:>6.1} | {api:>6.1}",
+            "{level:>5} | {r:>7.1} | {sc:>6.1} | {x:>5.1} | {:>5.2} | {df:>6.1} | {api:>6.1} | {csc:>6.1} | {cx:>5.1}",
             sc / x
         );
     }

@@ -405,9 +405,11 @@ fn error_table_by_level() {
     }
 }
 
-/// The coarse kernels (level-1 triangles, per-edge clipping with horizon
-/// arcs at levels 2–5) against the f64 exact clipping of the same chord
-/// polygons, on random lobes and random cells, many across the horizon.
+/// The coarse chord kernels (level-1 triangles, per-edge clipping with
+/// horizon arcs at levels 2–5) against the f64 exact clipping of the same
+/// chord polygons, on random lobes and random cells, many across the
+/// horizon. (The Stokes quadrature of parallels, which integrates the true
+/// parallels instead, is measured in tests/ltc_parallel_quadrature.rs.)
 #[test]
 fn coarse_levels_match_the_f64_reference() {
     let mut rng = Rng::new(31, 7);

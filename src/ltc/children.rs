@@ -152,6 +152,11 @@ pub struct GlossyLtc {
     /// Children of nodes shallower than this that straddle the horizon are
     /// clipped exactly, deeper ones sphere-approximated.
     pub exact_crossing_depth: u32,
+    /// Row 2 of cof(A) = A₀ × A₁ (rows): (A·c)×(A·c') = cof(A)·(c×c'), whose
+    /// z component the Stokes quadrature of parallels integrates.
+    pub cofactor_z: [f32; 3],
+    /// Stokes nodes per segment for children at depths 2..=5 (0: chords).
+    pub stokes_nodes: [u8; 4],
 }
 
 impl GlossyLtc {
@@ -183,7 +188,27 @@ impl GlossyLtc {
                 .plain_quad_depth
                 .clamp(EXACT_CLIP_DEPTH + 1, FIRST_PLAIN_QUAD_DEPTH),
             exact_crossing_depth: opts.exact_crossing_depth,
+            cofactor_z: {
+                let q = r.x_axis.cross(r.y_axis);
+                [q.x as f32, q.y as f32, q.z as f32]
+            },
+            stokes_nodes: if opts.stokes_parallels {
+                super::parallel_quadrature::node_counts(&a)
+            } else {
+                [0; 4]
+            },
         }
+    }
+
+    /// Stokes nodes per segment for the children at `depth` (coarse
+    /// depths only), or `None` for chords.
+    #[inline]
+    pub fn stokes_nodes_at(&self, depth: u32) -> Option<usize> {
+        let i = depth.checked_sub(super::parallel_quadrature::FIRST_DEPTH)? as usize;
+        self.stokes_nodes
+            .get(i)
+            .filter(|&&n| n > 0)
+            .map(|&n| n as usize)
     }
 
     /// Normalised density at a unit world direction.
@@ -221,6 +246,8 @@ impl GlossyLtc {
         if depth >= self.plain_quad_depth {
             let (f, sides) = quad_children_scalar(self, cell);
             self.finish_children(cell, f, sides, None)
+        } else if let Some(n) = self.stokes_nodes_at(depth) {
+            super::parallel_quadrature::stokes_children_scalar(self, cell, n)
         } else {
             coarse_children_scalar(self, cell)
         }
@@ -409,6 +436,8 @@ impl ShadingLtc {
             deep_depth: 64,
             plain_quad_depth: FIRST_PLAIN_QUAD_DEPTH,
             exact_crossing_depth: EXACT_CROSSING_DEPTH,
+            cofactor_z: [0.0, 0.0, 1.0],
+            stokes_nodes: [0; 4],
         }; 1];
         let mut glossy_count = 0;
         for lobe in lobes.ggx.iter().take(lobes.ggx_count.min(1)) {

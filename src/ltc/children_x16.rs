@@ -190,6 +190,8 @@ pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     }
     if depth >= g.plain_quad_depth {
         quad_children_x16(g, cell)
+    } else if let Some(n) = g.stokes_nodes_at(depth) {
+        super::parallel_quadrature_x16::stokes_children_x16(g, cell, n)
     } else {
         coarse_children_x16(g, cell)
     }

@@ -24,7 +24,10 @@
 //!   diffuse lobe's whole cost;
 //! - [`children`]: the per-shading-point mixture ([`ShadingLtc`]) and the
 //!   4-child integrals of a node — the API the product guider calls;
-//! - [`children_x16`]: the same 4 children × 4 edges in one f32x16.
+//! - [`children_x16`]: the same 4 children × 4 edges in one f32x16;
+//! - [`parallel_quadrature`] (with [`parallel_clip`] and the wide
+//!   [`parallel_quadrature_x16`]): an opt-in alternative to the chords at
+//!   levels 2–5, Stokes quadrature along the true parallels.
 // `!(x > 0.0)` is deliberate throughout: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
@@ -39,6 +42,9 @@ pub mod ggx;
 pub mod level1;
 pub mod lobe;
 pub mod options;
+pub mod parallel_clip;
+pub mod parallel_quadrature;
+pub mod parallel_quadrature_x16;
 pub mod polygon;
 pub mod quad;
 pub mod quad_x16;

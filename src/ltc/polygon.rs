@@ -58,12 +58,18 @@ pub fn is_plain_quad_depth(depth: u32) -> bool {
 /// outside: along the lower parallel with increasing φ, up a meridian, back
 /// along the upper parallel, down the first meridian.
 pub fn cell_polygon_f64(cell: Cell, out: &mut Vec<DVec3>) {
+    cell_polygon_chords_f64(cell, MAX_CHORD_TURNS, out);
+}
+
+/// [`cell_polygon_f64`] with chords of at most `chord_turns`.
+pub fn cell_polygon_chords_f64(cell: Cell, chord_turns: f64, out: &mut Vec<DVec3>) {
     out.clear();
     let b = cell.bounds();
     let dir = |z: f64, phi: f64| {
         let r = (1.0 - z * z).max(0.0).sqrt();
         DVec3::new(r * phi.cos(), r * phi.sin(), z)
     };
+    let parallel_segments = |depth: u32, z: f64| parallel_chords(depth, z, chord_turns);
     let n0 = parallel_segments(cell.depth, b.z0);
     for k in 0..=n0 {
         out.push(dir(b.z0, b.phi0 + (b.phi1 - b.phi0) * k as f64 / n0 as f64));
@@ -114,9 +120,16 @@ pub fn clipped_cosine_integral_f64(verts: &[DVec3], scratch: &mut Vec<DVec3>) ->
 /// Reference integral of the LTC whose world→cosine map is `a` over a cell:
 /// exact clipping, f64, chord polygon.
 pub fn cell_integral_reference(cell: Cell, a: &DMat3, orientation: f64) -> f64 {
+    cell_integral_chords(cell, a, orientation, MAX_CHORD_TURNS)
+}
+
+/// [`cell_integral_reference`] with chords of at most `chord_turns`: with
+/// fine chords (1/4096 turn: a sag of 3e-7 rad) it stands for the true
+/// cell, against which the Stokes quadrature of parallels is measured.
+pub fn cell_integral_chords(cell: Cell, a: &DMat3, orientation: f64, chord_turns: f64) -> f64 {
     let mut poly = Vec::with_capacity(16);
     let mut scratch = Vec::with_capacity(24);
-    cell_polygon_f64(cell, &mut poly);
+    cell_polygon_chords_f64(cell, chord_turns, &mut poly);
     for v in poly.iter_mut() {
         *v = *a * *v;
     }
