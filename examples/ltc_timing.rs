@@ -11,16 +11,25 @@ use ltcguide::math::Frame;
 use std::hint::black_box;
 use std::time::Instant;
 
-fn min_ns(mut f: impl FnMut()) -> f64 {
-    let mut best = f64::MAX;
-    for _ in 0..40 {
-        let t = Instant::now();
-        for _ in 0..2000 {
-            f();
-        }
-        best = best.min(t.elapsed().as_secs_f64() * 1e9 / 2000.0);
-    }
-    best
+fn min_ns(f: impl FnMut()) -> f64 {
+    batches_ns(f)[0]
+}
+
+/// The 40 batch means (ns per call), sorted: the minimum is the least
+/// disturbed batch, the median what a mean-based measurement (criterion)
+/// sees on a shared machine.
+fn batches_ns(mut f: impl FnMut()) -> Vec<f64> {
+    let mut v: Vec<f64> = (0..40)
+        .map(|_| {
+            let t = Instant::now();
+            for _ in 0..2000 {
+                f();
+            }
+            t.elapsed().as_secs_f64() * 1e9 / 2000.0
+        })
+        .collect();
+    v.sort_by(f64::total_cmp);
+    v
 }
 
 fn main() {
@@ -76,9 +85,10 @@ fn main() {
         let sc = min_ns(|| {
             black_box(g.children_scalar(black_box(cell), 99));
         });
-        let x = min_ns(|| {
+        let xb = batches_ns(|| {
             black_box(children_x16(&g, black_box(cell), 99));
         });
+        let (x, x_median) = (xb[0], xb[20]);
         let df = min_ns(|| {
             black_box(d.diffuse_form_factors(black_box(cell)));
         });
@@ -103,7 +113,9 @@ fn main() {
         let cx = min_ns(|| {
             black_box(children_x16(&gc, black_box(cell), 99));
         });
-        print!("[quad x16 only {es:.1}, deep {deep:.1}, diffuse api simd {dx:.1}] ");
+        print!(
+            "[quad x16 only {es:.1}, deep {deep:.1}, diffuse api simd {dx:.1}, x16 median {x_median:.1}] "
+        );
         println!(
             "{level:>5} | {r:>7.1} | {sc:>6.1} | {x:>5.1} | {:>5.2} | {df:>6.1} | {api:>6.1} | {csc:>6.1} | {cx:>5.1}",
             sc / x

@@ -2,6 +2,8 @@
 //! clipped LTC integral of the children at levels 2–5 by exact meridian
 //! edges + quadrature of (u×u')_z/|u|² along the parallels, against a
 //! fine-chord f64 reference, next to the chord polygons at P = 4 and 6.
+#![allow(clippy::needless_range_loop)] // k indexes refs and the children alike
+
 use glam::{DMat3, DVec3, Vec3};
 use ltcguide::bsdf::{GgxLobe, Lobes};
 use ltcguide::directional::Cell;
