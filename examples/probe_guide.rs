@@ -22,6 +22,7 @@ fn main() {
         nee: false,
         max_depth: Some(10),
         roulette: RouletteMode::Off,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
     };
     let opts = RenderOptions {
         method: Method::Radiance,
@@ -58,6 +59,7 @@ fn main() {
         nee: true,
         max_depth: Some(9),
         roulette: RouletteMode::Off,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
     };
     for c in 0..G * G {
         let (cx, cy) = (c % G, c / G);

@@ -1,37 +1,92 @@
 #!/usr/bin/env python3
 """Equal-time ratios from the compare runs: for every scene under docs/results,
-the final relMSE and MAE of product relative to radiance and to pt (mean over runs
-of each method's final row in curves.csv). Prints a markdown table; results.sh
-appends it to docs/results.md. Numbers come only from the CSV files."""
+the final relMSE and MAE of product relative to radiance (and to pt when pt ran);
+with `--roulette CLASSIC_ROOT ADRRS_ROOT`, each guided method's error under ADRRS
+relative to classic roulette.
+
+Two ratios per metric, because relMSE on these scenes is dominated by a few
+firefly pixels and one unlucky run can move a mean by 2x:
+- "means": ratio of the per-method means over runs (what an average user sees);
+- "geo": ratio of geometric means (mean of log errors), robust to one outlier run;
+  with its 1-sigma factor from the spread of the log errors of both methods,
+  sqrt(var_p/n_p + var_r/n_r), shown as x/ f.
+Numbers come only from the CSV files (each run's final row). Prints markdown."""
 import csv
+import math
 import os
 import sys
 
-root = sys.argv[1] if len(sys.argv) > 1 else "docs/results"
 scenes = ["cornell-box", "veach-mis", "veach-ajar", "staircase", "living-room"]
 
 
 def finals(path):
-    rows = list(csv.DictReader(open(path)))
     last = {}
-    for r in rows:
+    for r in csv.DictReader(open(path)):
         last[(r["method"], r["run"])] = r  # rows are in time order per run
     out = {}
     for (m, _), r in last.items():
         out.setdefault(m, []).append((float(r["relmse"]), float(r["mae"])))
-    return {m: (sum(v[0] for v in vs) / len(vs), sum(v[1] for v in vs) / len(vs)) for m, vs in out.items()}
+    return out
 
 
-print("| scene | relMSE product/radiance | relMSE product/pt | MAE product/radiance | MAE product/pt |")
-print("|---|---|---|---|---|")
-for s in scenes:
-    p = os.path.join(root, s, "curves.csv")
-    if not os.path.exists(p):
-        continue
-    f = finals(p)
-    if not all(m in f for m in ("pt", "radiance", "product")):
-        continue
-    pr, pm = f["product"]
-    rr, rm = f["radiance"]
-    tr, tm = f["pt"]
-    print(f"| {s} | {pr / rr:.2f} | {pr / tr:.2f} | {pm / rm:.2f} | {pm / tm:.2f} |")
+def mean(xs):
+    return sum(xs) / len(xs)
+
+
+def ratios(a, b):
+    """(ratio of means, ratio of geometric means, 1-sigma factor of the latter)."""
+    la, lb = [math.log(x) for x in a], [math.log(x) for x in b]
+
+    def var(xs):
+        m = mean(xs)
+        return sum((x - m) ** 2 for x in xs) / (len(xs) - 1) if len(xs) > 1 else float("nan")
+
+    sigma = math.sqrt(var(la) / len(la) + var(lb) / len(lb))
+    return mean(a) / mean(b), math.exp(mean(la) - mean(lb)), math.exp(sigma)
+
+
+def cell(a, b):
+    means, geo, f = ratios(a, b)
+    spread = f"{geo:.2f} x/ {f:.2f}" if math.isfinite(f) else f"{geo:.2f}"
+    return f"{means:.2f} | {spread}"
+
+
+def product_vs_radiance(root):
+    print("| scene | runs | relMSE product/radiance: means | geo | MAE product/radiance: means | geo | relMSE product/pt: means | geo |")
+    print("|---|---|---|---|---|---|---|---|")
+    for s in scenes:
+        p = os.path.join(root, s, "curves.csv")
+        if not os.path.exists(p):
+            continue
+        f = finals(p)
+        if not all(m in f for m in ("radiance", "product")):
+            continue
+        col = lambda m, i: [v[i] for v in f[m]]
+        n = min(len(f["product"]), len(f["radiance"]))
+        vs_pt = cell(col("product", 0), col("pt", 0)) if "pt" in f else "— | —"
+        print(
+            f"| {s} | {n} | {cell(col('product', 0), col('radiance', 0))} | "
+            f"{cell(col('product', 1), col('radiance', 1))} | {vs_pt} |"
+        )
+
+
+def roulette_vs_classic(classic_root, adrrs_root):
+    """Per scene and guided method: ADRRS's final error over classic's."""
+    print("| scene | method | runs | relMSE adrrs/classic: means | geo | MAE adrrs/classic: means | geo |")
+    print("|---|---|---|---|---|---|---|")
+    for s in scenes:
+        a, c = (os.path.join(r, s, "curves.csv") for r in (adrrs_root, classic_root))
+        if not (os.path.exists(a) and os.path.exists(c)):
+            continue
+        fa, fc = finals(a), finals(c)
+        for m in ("radiance", "product"):
+            if m in fa and m in fc:
+                col = lambda f, i: [v[i] for v in f[m]]
+                n = min(len(fa[m]), len(fc[m]))
+                print(f"| {s} | {m} | {n} | {cell(col(fa, 0), col(fc, 0))} | {cell(col(fa, 1), col(fc, 1))} |")
+
+
+if len(sys.argv) == 4 and sys.argv[1] == "--roulette":
+    roulette_vs_classic(sys.argv[2], sys.argv[3])
+else:
+    product_vs_radiance(sys.argv[1] if len(sys.argv) > 1 else "docs/results")

@@ -71,6 +71,14 @@ struct CompareArgs {
     /// Which methods use next-event estimation.
     #[arg(long, value_enum, default_value_t = NeeChoice::Paper)]
     nee: NeeChoice,
+    /// Russian roulette of the guided methods (pt keeps Mitsuba's classic
+    /// rule). The paper's setting is adrrs; with NEE, adrrs's weight window
+    /// can cost more variance than the time it saves (docs/results-reading.md).
+    #[arg(long, value_enum, default_value_t = RouletteMode::Adrrs)]
+    guided_rr: RouletteMode,
+    /// ADRRS's weight-window ratio s for the guided methods (as for render).
+    #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
+    adrrs_window: f32,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -111,6 +119,11 @@ struct RenderArgs {
     /// Russian roulette strategy.
     #[arg(long, value_enum, default_value_t = RouletteMode::Classic)]
     rr: RouletteMode,
+    /// ADRRS's weight-window ratio s (upper/lower bound, ≥ 1): paths whose
+    /// expected contribution is below 2/(1+s) of the pixel's are played.
+    /// The paper's 5 kills the most; wider windows add less variance.
+    #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
+    adrrs_window: f32,
     /// Write render statistics as JSON.
     #[arg(long)]
     stats_json: Option<PathBuf>,
@@ -249,6 +262,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             nee,
             max_depth,
             roulette: args.rr,
+            adrrs_window: args.adrrs_window,
         },
         progress: true,
         snapshot_times: Vec::new(),
@@ -370,6 +384,7 @@ fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
         } else {
             RouletteMode::Classic
         },
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
     }
 }
 
@@ -387,6 +402,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         out_dir: args.out.clone(),
         path_for: default_path_settings,
         nee: args.nee,
+        guided_roulette: Some((args.guided_rr, args.adrrs_window)),
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;

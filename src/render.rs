@@ -158,6 +158,7 @@ impl Default for RenderOptions {
                 nee: true,
                 max_depth: Some(10),
                 roulette: crate::integrator::path::RouletteMode::Classic,
+                adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
             },
             progress: false,
             snapshot_times: Vec::new(),

@@ -19,6 +19,7 @@ fn settings(scene: &Scene, method: Method) -> PathSettings {
         } else {
             RouletteMode::Adrrs
         },
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
     }
 }
 
@@ -54,6 +55,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         out_dir: dir.clone(),
         path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
+        guided_roulette: Some((RouletteMode::Off, 5.0)),
         progress: false,
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -101,6 +103,17 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     let summary = std::fs::read_to_string(dir.join("summary.md")).unwrap();
     assert!(summary.contains("| product |") && summary.contains("Time-to-error speedup"));
     assert!(summary.contains("threads"));
+    // The roulette override reaches the guided methods only, and the
+    // summary says what every method ran with.
+    assert!(summary.contains("pt: NEE, roulette classic"), "{summary}");
+    assert!(
+        summary.contains("radiance: no NEE, roulette off"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("product: no NEE, roulette off"),
+        "{summary}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -116,6 +129,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
         out_dir: dir.clone(),
         path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
+        guided_roulette: None,
         progress: false,
     };
     let wrong = Image {
@@ -174,6 +188,7 @@ fn compare_nee_choice_reaches_every_method() {
             out_dir: dir.clone(),
             path_for: settings,
             nee: choice,
+            guided_roulette: None,
             progress: false,
         };
         let outcome = run_compare(&scene, &reference, &opts).unwrap();

@@ -23,6 +23,7 @@ fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool
         nee,
         max_depth: scene.max_depth.or(Some(10)),
         roulette,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
     };
     let guided = render(&scene, &options(method, spp, 5, path)).expect("render");
     assert_eq!(
@@ -112,6 +113,7 @@ fn a_fixed_seed_gives_a_fixed_image_whatever_the_thread_count() {
                         nee: method == Method::Pt,
                         max_depth: Some(6),
                         roulette: RouletteMode::Adrrs,
+                        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
                     },
                 )
             };
@@ -198,6 +200,7 @@ fn adrrs_changes_no_expectation() {
                         nee: false,
                         max_depth: scene.max_depth,
                         roulette,
+                        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
                     },
                 )
             };
@@ -250,6 +253,7 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
         // Short paths keep the test cheap; the comparison is the same.
         max_depth: Some(4),
         roulette: RouletteMode::Classic,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
     };
     let product = render(&scene, &options(Method::Product, 48, 7, path)).unwrap();
     let guiding = product.stats.guiding.as_ref().unwrap();

@@ -31,6 +31,7 @@ fn sphere_light_direct_lighting_matches_closed_form_with_and_without_nee() {
             nee,
             max_depth: Some(2),
             roulette: RouletteMode::Off,
+            adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
         };
         for (k, &x) in points.iter().enumerate() {
             let to = c - x;

@@ -325,6 +325,7 @@ fn stiff_scene_renders_finite_and_methods_agree() {
                 nee: true,
                 max_depth: scene.max_depth,
                 roulette: RouletteMode::Classic,
+                adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
             },
             product_kernel: ProductKernel::Simd,
             ..Default::default()

@@ -10,7 +10,7 @@ use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
 use crate::film::metrics::{mae, relmse};
 use crate::film::png_io::{write_png, write_png_rgb8};
-use crate::integrator::path::PathSettings;
+use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::render::{Budget, Method, RenderOptions, SnapshotPlan, render};
 use crate::scene::Scene;
 use std::fmt::Write;
@@ -27,6 +27,11 @@ pub struct CompareOptions {
     pub path_for: fn(&Scene, Method) -> PathSettings,
     /// Overrides `path_for`'s NEE choice.
     pub nee: NeeChoice,
+    /// Overrides `path_for`'s roulette for the guided methods (`None`: as
+    /// `path_for` says). Unguided path tracing keeps its own, since ADRRS
+    /// needs a guide's adjoint estimates.
+    /// With ADRRS, its window ratio s.
+    pub guided_roulette: Option<(RouletteMode, f32)>,
     pub progress: bool,
 }
 
@@ -48,6 +53,27 @@ pub struct CompareOutcome {
     pub rows: Vec<CurveRow>,
     pub curves: Vec<MeanCurve>,
     pub summary: String,
+}
+
+/// A method's path settings in this comparison: `path_for`'s, with the
+/// study's NEE and roulette overrides.
+fn path_settings(scene: &Scene, method: Method, opts: &CompareOptions) -> PathSettings {
+    let base = (opts.path_for)(scene, method);
+    PathSettings {
+        nee: match opts.nee {
+            NeeChoice::Paper => base.nee,
+            NeeChoice::All => true,
+            NeeChoice::None => false,
+        },
+        ..match opts.guided_roulette {
+            Some((roulette, adrrs_window)) if method != Method::Pt => PathSettings {
+                roulette,
+                adrrs_window,
+                ..base
+            },
+            _ => base,
+        }
+    }
 }
 
 pub fn method_name(m: Method) -> String {
@@ -77,9 +103,12 @@ pub fn run_compare(
         .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
     let mut rows = Vec::new();
     let mut notes = Vec::new();
-    for &method in &opts.methods {
-        let name = method_name(method);
-        for run in 0..opts.runs {
+    // Runs outer, methods inner: a shared machine's load drifts over a
+    // study, and interleaving makes every method's runs meet the same drift
+    // instead of one method taking the quiet start and another the busy end.
+    for run in 0..opts.runs {
+        for &method in &opts.methods {
+            let name = method_name(method);
             if opts.progress {
                 eprintln!(
                     "compare: {name}, run {} of {}, {:.0} s",
@@ -93,14 +122,7 @@ pub fn run_compare(
                 budget: Budget::Seconds(opts.seconds),
                 seed: 1000 + run as u64,
                 threads: opts.threads,
-                path: PathSettings {
-                    nee: match opts.nee {
-                        NeeChoice::Paper => (opts.path_for)(scene, method).nee,
-                        NeeChoice::All => true,
-                        NeeChoice::None => false,
-                    },
-                    ..(opts.path_for)(scene, method)
-                },
+                path: path_settings(scene, method, opts),
                 progress: opts.progress,
                 snapshot_times: snapshot_times(opts.seconds),
                 ..Default::default()
@@ -226,6 +248,20 @@ fn summary_markdown(
         threads,
         cpu_model()
     );
+    let settings: Vec<String> = opts
+        .methods
+        .iter()
+        .map(|&m| {
+            let p = path_settings(scene, m, opts);
+            let nee = if p.nee { "NEE" } else { "no NEE" };
+            let mut rr = format!("{:?}", p.roulette).to_lowercase();
+            if p.roulette == RouletteMode::Adrrs {
+                rr += &format!(" (window s = {})", p.adrrs_window);
+            }
+            format!("{}: {nee}, roulette {rr}", method_name(m))
+        })
+        .collect();
+    let _ = writeln!(s, "Path settings: {}.\n", settings.join("; "));
     let _ = writeln!(
         s,
         "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"

@@ -22,9 +22,12 @@ pub struct Adrrs {
     pub s: f32,
 }
 
+/// Vorba & Křivánek's window ratio s, which DESIGN §5 prescribes.
+pub const PAPER_WINDOW: f32 = 5.0;
+
 impl Default for Adrrs {
     fn default() -> Self {
-        Adrrs { s: 5.0 }
+        Adrrs { s: PAPER_WINDOW }
     }
 }
 
@@ -140,5 +143,31 @@ mod tests {
                 invalid_estimate: 4
             }
         );
+    }
+
+    /// A wider window lowers the bound, so it plays less often and with
+    /// higher survival; every window keeps the expected weight equal to
+    /// the throughput (exact average over a uniform grid of u).
+    #[test]
+    fn wider_windows_kill_less_and_stay_unbiased() {
+        let mut st = AdrrsStats::default();
+        let (pixel, adjoint) = (2.0, 0.5);
+        let mut last_q = 0.0;
+        for s in [1.0, PAPER_WINDOW, 20.0, 100.0] {
+            let rr = Adrrs { s };
+            let q = rr.survival_probability(0.05, pixel, adjoint, &mut st);
+            assert!(q > last_q && q <= 1.0, "s = {s}: q = {q}");
+            last_q = q;
+            let n = 100_000;
+            let mean: f64 = (0..n)
+                .map(|i| {
+                    let u = (i as f32 + 0.5) / n as f32;
+                    rr.roulette(0.05, pixel, adjoint, u, &mut st)
+                        .map_or(0.0, |f| 0.05 * f as f64)
+                })
+                .sum::<f64>()
+                / n as f64;
+            assert!((mean - 0.05).abs() < 1e-5, "s = {s}: E[weight] = {mean}");
+        }
     }
 }

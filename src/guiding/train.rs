@@ -399,6 +399,7 @@ pub fn render_guided<M: WeightModel>(
                 let unguided = PathSettings {
                     nee: true,
                     roulette: RouletteMode::Classic,
+                    adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
                     ..opts.path
                 };
                 let out = render_pass(scene, &NoGuide, &unguided, opts.seed, pass, None);

@@ -11,8 +11,6 @@ use crate::sampling::{Rng, power_heuristic};
 use crate::scene::{Interaction, Scene};
 use glam::Vec3;
 
-const ADRRS: crate::guiding::adrrs::Adrrs = crate::guiding::adrrs::Adrrs { s: 5.0 };
-
 /// How paths are terminated early.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 pub enum RouletteMode {
@@ -29,6 +27,10 @@ pub struct PathSettings {
     /// Maximum number of segments (camera ray included), `None` = unlimited.
     pub max_depth: Option<u32>,
     pub roulette: RouletteMode,
+    /// ADRRS's window ratio s (upper/lower bound; the paper's is
+    /// [`PAPER_WINDOW`](crate::guiding::adrrs::PAPER_WINDOW)). A wider
+    /// window kills fewer paths: less time saved, less variance added.
+    pub adrrs_window: f32,
 }
 
 /// Depth from which classic roulette applies (Mitsuba's `rr_depth`).
@@ -212,7 +214,10 @@ pub fn trace_path<G: Guide>(
                 if pixel_estimate > 0.0 {
                     adrrs_applied = true;
                     let t = crate::math::luminance(throughput);
-                    match ADRRS.roulette(
+                    match (crate::guiding::adrrs::Adrrs {
+                        s: settings.adrrs_window,
+                    })
+                    .roulette(
                         t,
                         pixel_estimate,
                         adjoint,
