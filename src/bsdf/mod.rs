@@ -381,6 +381,15 @@ impl Bsdf {
     #[inline]
     fn eval_pdf_unguarded(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
         match self.model {
+            // One dispatch and one mirroring for both (not `eval` then `pdf`).
+            BsdfModel::Diffuse { reflectance } => {
+                let (wo, wi) = if self.mirrored(wo) {
+                    (flip(wo), flip(wi))
+                } else {
+                    (wo, wi)
+                };
+                (diffuse::eval(reflectance, wo, wi), diffuse::pdf(wo, wi))
+            }
             BsdfModel::RoughConductor {
                 alpha,
                 fresnel,
