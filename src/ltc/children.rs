@@ -311,6 +311,21 @@ pub fn child_centre_directions(cell: Cell) -> [Vec3; 4] {
     })
 }
 
+/// The clamped cosine about a unit normal `n`, integrated over the 4 root
+/// cells (quarter spheres) and divided by π: each cell's share of the
+/// irradiance under uniform light, summing to 1. Exact clipping, as for
+/// the product's diffuse lobe at level 1.
+pub fn cosine_root_children(n: Vec3) -> [f32; 4] {
+    if n.x.abs() < LUNE_MAX_NORMAL_X {
+        return form_factor::cosine_quarter_spheres_near_lune(n);
+    }
+    let f = Frame::from_normal(n);
+    let rows = [f.s.to_array(), f.t.to_array(), n.to_array()];
+    let orientation = f.s.dot(f.t.cross(n)).signum();
+    level1_children(&rows, orientation)
+        .unwrap_or_else(|| exact_children_f32(&rows, orientation, Cell::ROOT))
+}
+
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
 pub fn exact_children_f32(rows: &[[f32; 3]; 3], orientation: f32, cell: Cell) -> [f32; 4] {
     let scale = orientation * (0.5 / PI);
