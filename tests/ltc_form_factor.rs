@@ -183,7 +183,7 @@ fn cosine_quarter_spheres_near_lune_is_second_order_in_n_x() {
 #[test]
 fn cosine_root_children_are_the_exact_quarter_sphere_shares() {
     use glam::DMat3;
-    use ltcguide::ltc::children::cosine_root_children;
+    use ltcguide::ltc::level1::cosine_root_children;
     use ltcguide::ltc::polygon::cell_integral_reference;
     use ltcguide::math::Frame;
     let mut rng = Rng::new(8, 4);
