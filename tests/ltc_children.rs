@@ -443,18 +443,6 @@ fn coarse_levels_match_the_f64_reference() {
     println!("coarse kernels vs f64 reference: worst absolute difference {worst:.1e}");
 }
 
-/// A shading frame around a random normal (uniform in a cube, normalised:
-/// not uniform on the sphere, which these tests do not need).
-fn random_frame(rng: &mut Rng) -> Frame {
-    let n = Vec3::new(
-        rng.next_f32() - 0.5,
-        rng.next_f32() - 0.5,
-        rng.next_f32() - 0.5,
-    )
-    .normalize();
-    Frame::from_normal(n)
-}
-
 /// The default plain-quad level is the first whose parallels need no
 /// subdivision, so the default options run the accurate kernels.
 #[test]

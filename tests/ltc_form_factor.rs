@@ -175,3 +175,50 @@ fn cosine_quarter_spheres_near_lune_is_second_order_in_n_x() {
     assert!(worst[2] < 5e-6 + worst[4] / 50.0, "{worst:?}");
     assert!(worst[3] < 3e-5, "{worst:?}");
 }
+
+/// The irradiance shares of the root cells (radiance guiding's adjoint
+/// weights): equal to the f64 exactly clipped cosine integrals at random
+/// normals, at the axes and near the lune case (|n_x| around the switch),
+/// non-negative, and summing to 1.
+#[test]
+fn cosine_root_children_are_the_exact_quarter_sphere_shares() {
+    use glam::DMat3;
+    use ltcguide::ltc::level1::cosine_root_children;
+    use ltcguide::ltc::polygon::cell_integral_reference;
+    use ltcguide::math::Frame;
+    let mut rng = Rng::new(8, 4);
+    let mut normals: Vec<DVec3> = vec![
+        DVec3::X,
+        -DVec3::X,
+        DVec3::Y,
+        -DVec3::Z,
+        DVec3::new(4e-3, 0.6, 0.8),
+        DVec3::new(-3.9e-3, -0.8, 0.6),
+        DVec3::new(4.1e-3, 0.0, 1.0),
+    ];
+    for _ in 0..300 {
+        let z = 2.0 * rng.next_f64() - 1.0;
+        let phi = 2.0 * PI * rng.next_f64();
+        let r = (1.0 - z * z).sqrt();
+        normals.push(DVec3::new(r * phi.cos(), r * phi.sin(), z));
+    }
+    let mut worst = 0.0f64;
+    for n in normals {
+        let n = n.normalize();
+        let frame = Frame::from_normal(n.as_vec3());
+        let to_local = DMat3::from_cols(frame.s.as_dvec3(), frame.t.as_dvec3(), frame.n.as_dvec3())
+            .transpose();
+        let o = to_local.determinant().signum();
+        let shares = cosine_root_children(n.as_vec3());
+        let mut sum = 0.0;
+        for (k, &s) in shares.iter().enumerate() {
+            assert!(s.is_finite() && s >= 0.0, "{n:?}: {shares:?}");
+            let exact = cell_integral_reference(Cell::ROOT.child(k), &to_local, o);
+            worst = worst.max((s as f64 - exact).abs());
+            sum += s as f64;
+        }
+        assert!((sum - 1.0).abs() < 1e-4, "{n:?}: shares sum to {sum}");
+    }
+    eprintln!("worst |share − exact| {worst:.2e}");
+    assert!(worst < 1e-4, "{worst}");
+}

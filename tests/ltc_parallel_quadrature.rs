@@ -24,16 +24,6 @@ fn stokes() -> LtcOptions {
     }
 }
 
-fn random_frame(rng: &mut Rng) -> Frame {
-    let n = Vec3::new(
-        rng.next_f32() - 0.5,
-        rng.next_f32() - 0.5,
-        rng.next_f32() - 0.5,
-    )
-    .normalize();
-    Frame::from_normal(n)
-}
-
 /// Errors relative to the parent's mass (floored at 1e-3 of the lobe),
 /// over random lobes, frames (the polar axis among them) and coarse nodes,
 /// of the Stokes children and of the chord children on the same nodes.

@@ -120,6 +120,7 @@ fn weights_for(case: &Case, model: &ProductModel, rng: &mut Rng) -> Option<Produ
         frame: &frame,
         wo_local: wo,
         bsdf: &bsdf,
+        needs_adjoint: false,
     };
     model.weights(&ctx)
 }

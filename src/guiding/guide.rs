@@ -8,7 +8,7 @@ use super::quadtree::QuadTree;
 use super::record::{Record, RecordBuffer};
 use super::sdtree::SdTree;
 use crate::integrator::guide::{Guide, GuideVertex, PathVertex, VertexContext};
-use crate::math::luminance;
+use crate::math::{Frame, luminance};
 use glam::{Vec2, Vec3};
 
 /// Chooses the child-weight function at a vertex.
@@ -22,8 +22,15 @@ pub trait WeightModel: Sync {
     fn weights<'a>(&'a self, ctx: &VertexContext) -> Option<Self::Weights<'a>>;
 
     /// The reflected radiance towards ω_o (the adjoint ADRRS needs), given
-    /// the descent's root normaliser Σ_k w_k.
-    fn adjoint(&self, weights: &Self::Weights<'_>, ctx: &VertexContext, root_total: f32) -> f32;
+    /// the descent's root normaliser Σ_k w_k and the root cells' stored
+    /// radiance L_k (mean radiance over each quarter sphere).
+    fn adjoint(
+        &self,
+        weights: &Self::Weights<'_>,
+        ctx: &VertexContext,
+        root_total: f32,
+        root_radiance: [f32; 4],
+    ) -> f32;
 
     /// What the weights are, for reports.
     fn name(&self) -> &'static str;
@@ -53,13 +60,37 @@ impl WeightModel for RadianceModel {
         "radiance"
     }
 
-    /// Σ_k L_k over the four root cells is 4× the mean incident radiance;
-    /// without a BSDF integral, the reflected radiance is estimated as
-    /// albedo × mean incident radiance (exact for a diffuse surface under
-    /// uniform light).
-    fn adjoint(&self, _weights: &RadianceWeights, ctx: &VertexContext, root_total: f32) -> f32 {
-        ctx.bsdf.albedo_estimate(ctx.wo_local) * 0.25 * root_total
+    fn adjoint(
+        &self,
+        _weights: &RadianceWeights,
+        ctx: &VertexContext,
+        _root_total: f32,
+        root_radiance: [f32; 4],
+    ) -> f32 {
+        if !ctx.needs_adjoint {
+            return 0.0;
+        }
+        let albedo = ctx.bsdf.albedo_estimate(ctx.wo_local);
+        reflected_radiance_estimate(ctx.frame, ctx.wo_local, albedo, root_radiance)
     }
+}
+
+/// Without a BSDF integral, the reflected radiance towards ω_o is estimated
+/// as albedo × the cosine-weighted mean of the root cells' radiance over
+/// the hemisphere on ω_o's side (exact for a diffuse surface under uniform
+/// light). The mean over the whole sphere, used before, also averaged in
+/// the dark half behind the surface: for a wall lit from the front it
+/// halved the adjoint, doubling ADRRS's weight window for radiance guiding
+/// but not for the product, whose adjoint Σ L_k·D_k has the cosine in D_k.
+pub fn reflected_radiance_estimate(
+    frame: &Frame,
+    wo_local: Vec3,
+    albedo: f32,
+    root_radiance: [f32; 4],
+) -> f32 {
+    let side = if wo_local.z < 0.0 { -1.0 } else { 1.0 };
+    let share = crate::ltc::level1::cosine_root_children(frame.n * side);
+    albedo * (0..4).map(|k| share[k] * root_radiance[k]).sum::<f32>()
 }
 
 /// The SD-tree guide. `learning` is on during training iterations, when
@@ -120,7 +151,8 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         if !(root_total > 0.0 && root_total.is_finite()) {
             return None;
         }
-        let adjoint = self.model.adjoint(&weights, ctx, root_total);
+        let root_radiance = leaf.sampling.nodes()[0].sums;
+        let adjoint = self.model.adjoint(&weights, ctx, root_total, root_radiance);
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,
@@ -171,4 +203,45 @@ fn record_seed(pass: u64, v: &PathVertex) -> u64 {
         ^ ((v.p.y.to_bits() as u64) << 21)
         ^ ((v.p.z.to_bits() as u64) << 42);
     h(pass ^ h(pos ^ h(v.depth as u64)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Uniform radiance L over the upper half of the sphere (root cells 1
+    /// and 3) and none below: a surface facing up reflects albedo × L, one
+    /// facing down (or seen from below) nothing, a vertical one half; the
+    /// whole-sphere mean gave albedo × L/2 facing up.
+    #[test]
+    fn reflected_radiance_weights_the_hemisphere_by_its_cosine() {
+        let l = 3.0;
+        let upper = [0.0, l, 0.0, l];
+        let up = Frame::from_normal(Vec3::Z);
+        let down = Frame::from_normal(-Vec3::Z);
+        let side = Frame::from_normal(Vec3::new(0.6, 0.8, 0.0));
+        let front = Vec3::new(0.1, 0.2, 0.97);
+        let back = Vec3::new(0.1, 0.2, -0.97);
+        let close = |a: f32, b: f32| (a - b).abs() < 1e-4 * l;
+        assert!(close(
+            reflected_radiance_estimate(&up, front, 0.5, upper),
+            0.5 * l
+        ));
+        assert!(close(
+            reflected_radiance_estimate(&up, back, 0.5, upper),
+            0.0
+        ));
+        assert!(close(
+            reflected_radiance_estimate(&down, back, 0.5, upper),
+            0.5 * l
+        ));
+        assert!(close(
+            reflected_radiance_estimate(&down, front, 0.5, upper),
+            0.0
+        ));
+        assert!(close(
+            reflected_radiance_estimate(&side, front, 0.5, upper),
+            0.25 * l
+        ));
+    }
 }

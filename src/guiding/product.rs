@@ -12,7 +12,7 @@
 //!   clipping error) → radiance weights at that level (inside the descent).
 
 use super::descent::ChildWeights;
-use super::guide::WeightModel;
+use super::guide::{WeightModel, reflected_radiance_estimate};
 use crate::directional::Cell;
 use crate::integrator::guide::VertexContext;
 use crate::ltc::{LtcOptions, LtcTable, ProductKernel, ShadingLtc};
@@ -189,11 +189,20 @@ impl WeightModel for ProductModel<'_> {
 
     /// With product weights the root normaliser Σ_k L_k·D_k already
     /// estimates the reflected radiance; in the radiance fallback it is
-    /// albedo × mean incident radiance, as for radiance guiding.
-    fn adjoint(&self, weights: &ProductWeights, _ctx: &VertexContext, root_total: f32) -> f32 {
+    /// estimated as for radiance guiding.
+    fn adjoint(
+        &self,
+        weights: &ProductWeights,
+        ctx: &VertexContext,
+        root_total: f32,
+        root_radiance: [f32; 4],
+    ) -> f32 {
         match weights {
             ProductWeights::Product { .. } => root_total,
-            ProductWeights::RadianceOnly { albedo } => albedo * 0.25 * root_total,
+            ProductWeights::RadianceOnly { .. } if !ctx.needs_adjoint => 0.0,
+            ProductWeights::RadianceOnly { albedo } => {
+                reflected_radiance_estimate(ctx.frame, ctx.wo_local, *albedo, root_radiance)
+            }
         }
     }
 

@@ -13,6 +13,9 @@ pub struct VertexContext<'a> {
     pub frame: &'a Frame,
     pub wo_local: Vec3,
     pub bsdf: &'a Bsdf,
+    /// Whether roulette will ask this vertex for its adjoint estimate (an
+    /// estimate that costs work is then skipped where nothing reads it).
+    pub needs_adjoint: bool,
 }
 
 /// A per-vertex guiding distribution over world directions, mixed with BSDF

@@ -203,6 +203,8 @@ pub fn trace_path<G: Guide>(
                 frame: &it.frame,
                 wo_local: wo,
                 bsdf: &bsdf,
+                needs_adjoint: settings.roulette == RouletteMode::Adrrs
+                    && segments >= ADRRS_MIN_SEGMENTS,
             });
         }
         // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected

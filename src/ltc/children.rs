@@ -35,7 +35,7 @@ use super::children_x16;
 use super::coarse::coarse_children_scalar;
 use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::form_factor;
-use super::level1::{level1_children, level1_children_x16};
+use super::level1::{LUNE_MAX_NORMAL_X, level1_children, level1_children_x16};
 use super::polygon::{
     MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
     transform_rows, transformed_cached_polygon,
@@ -54,11 +54,6 @@ pub use super::options::{
     DEFAULT_DEEP_CELL_SIZE, EXACT_CLIP_DEPTH, EXACT_CROSSING_DEPTH, FIRST_PLAIN_QUAD_DEPTH,
     LtcOptions, ProductKernel,
 };
-
-/// Below this |n_x| the cosine lobe's root children take the lune form,
-/// whose error is ≈ 0.35·n_x² (5.7e-6 at 4e-3, tests/ltc_form_factor.rs),
-/// where the triangle form's is ~1e-7/|n_x|.
-const LUNE_MAX_NORMAL_X: f32 = 4e-3;
 
 /// Where a transformed child polygon lies with respect to the horizon. The
 /// chords are great arcs, so the vertex signs decide it exactly.

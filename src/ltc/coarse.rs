@@ -267,9 +267,6 @@ pub fn finish_coarse(g: &GlossyLtc, node: &CoarseNode, e: &CoarseEdges) -> [f32;
 /// leaves the upper half-space to the next one where it re-enters.
 #[cold]
 fn horizon_arcs(c: &ChildEdges, e: &CoarseEdges) -> f32 {
-    let mut sum = 0.0f32;
-    let mut pending_exit: Option<Vec3> = None;
-    let mut first_entry: Option<Vec3> = None;
     // The crossing edges in the child's winding: lower chords forwards,
     // right meridian, upper chords backwards, left meridian.
     let lower = e.crossing & c.lower_mask;
@@ -292,10 +289,27 @@ fn horizon_arcs(c: &ChildEdges, e: &CoarseEdges) -> f32 {
         .chain(bits(e.crossing & (1u128 << c.right), true))
         .chain(bits(upper, false))
         .chain(bits(e.crossing & (1u128 << c.left), false));
-    for (j, forward) in order {
-        let p = Vec3::new(e.px[j], e.py[j], 0.0);
+    horizon_arc_sum(order.map(|(j, forward)| {
         // Leaving when the edge's start (in the child's winding) is above.
-        if (e.a_up >> j & 1 == 1) == forward {
+        let exit = (e.a_up >> j & 1 == 1) == forward;
+        (Vec3::new(e.px[j], e.py[j], 0.0), exit)
+    }))
+}
+
+/// Given a clipped boundary's horizon crossings in winding order, each a
+/// point and whether the boundary leaves the upper half-space there, the
+/// z terms of the horizon arcs that close it: from each exit to the next
+/// entry, the last exit wrapping around to the first entry.
+pub fn horizon_arc_sum(crossings: impl Iterator<Item = (Vec3, bool)>) -> f32 {
+    let arc = |q: Vec3, p: Vec3| {
+        let (c, k) = unit_edge(q, p);
+        c.z * k
+    };
+    let mut sum = 0.0f32;
+    let mut pending_exit: Option<Vec3> = None;
+    let mut first_entry: Option<Vec3> = None;
+    for (p, exit) in crossings {
+        if exit {
             pending_exit = Some(p);
         } else {
             match pending_exit.take() {
@@ -308,12 +322,6 @@ fn horizon_arcs(c: &ChildEdges, e: &CoarseEdges) -> f32 {
         sum += arc(q, p);
     }
     sum
-}
-
-#[inline]
-fn arc(q: Vec3, p: Vec3) -> f32 {
-    let (c, k) = unit_edge(q, p);
-    c.z * k
 }
 
 /// The 4 child integrals of a coarse node, scalar. Along a parallel each

@@ -4,7 +4,7 @@
 
 use super::children::GlossyLtc;
 use super::coarse::{CoarseEdges, coarse_node, finish_coarse};
-use super::simd::{horizon_points, load16, splat, unit_edges, unit_vertices};
+use super::simd::{above_part_z, horizon_points, load16, splat, unit_edges, unit_vertices};
 use crate::directional::Cell;
 
 /// The 4 child integrals of a coarse node (depth 1..=4), 16 edges at a time.
@@ -35,19 +35,7 @@ pub fn coarse_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
             let p = horizon_points(ua, ub);
             e.px[j..j + 16].copy_from_slice(&p[0].to_array());
             e.py[j..j + 16].copy_from_slice(&p[1].to_array());
-            // The part above: a → p when a is up, p → b otherwise.
-            let s = [
-                a_up.bitselect(ua[0], p[0]),
-                a_up.bitselect(ua[1], p[1]),
-                a_up.bitselect(ua[2], p[2]),
-            ];
-            let t = [
-                a_up.bitselect(p[0], ub[0]),
-                a_up.bitselect(p[1], ub[1]),
-                a_up.bitselect(p[2], ub[2]),
-            ];
-            let (c, k) = unit_edges(s, t);
-            clip = crossing.bitselect(c[2] * k, clip);
+            clip = crossing.bitselect(above_part_z(ua, ub, p, a_up), clip);
         }
         e.clip[j..j + 16].copy_from_slice(&clip.to_array());
         j += 16;

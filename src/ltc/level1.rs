@@ -30,8 +30,14 @@ use super::fast_math::{
 };
 use super::polygon::transform_rows;
 use super::simd::{BLOCK_OF_EDGE, block_sums, edge_end_blocks, shuffle_blocks, splat, transform};
+use crate::directional::Cell;
 use glam::Vec3;
 use wide::{f32x4, f32x16};
+
+/// Below this |n_x| the cosine lobe's root children take the lune form,
+/// whose error is ≈ 0.35·n_x² (5.7e-6 at 4e-3, tests/ltc_form_factor.rs),
+/// where the triangle form's is ~1e-7/|n_x|.
+pub const LUNE_MAX_NORMAL_X: f32 = 4e-3;
 
 /// Smallest |h_x|/|h| handled as triangles: below it the nearly antipodal
 /// vertices cost up to ~1e-7/(|h_x|/|h|) of relative accuracy.
@@ -104,6 +110,21 @@ fn base_edge(a: Vec3, b: Vec3, ia: f32, ib: f32) -> [f32; 4] {
 #[inline(always)]
 fn signed_term([czw, d, p, far]: [f32; 4], s: f32) -> f32 {
     (czw * s) * if d * s < 0.0 { far } else { p }
+}
+
+/// The clamped cosine about a unit normal `n`, integrated over the 4 root
+/// cells (quarter spheres) and divided by π: each cell's share of the
+/// irradiance under uniform light, summing to 1. Exact clipping, as for
+/// the product's diffuse lobe at level 1.
+pub fn cosine_root_children(n: Vec3) -> [f32; 4] {
+    if n.x.abs() < LUNE_MAX_NORMAL_X {
+        return super::form_factor::cosine_quarter_spheres_near_lune(n);
+    }
+    let f = crate::math::Frame::from_normal(n);
+    let rows = [f.s.to_array(), f.t.to_array(), n.to_array()];
+    let orientation = f.s.dot(f.t.cross(n)).signum();
+    level1_children(&rows, orientation)
+        .unwrap_or_else(|| super::children::exact_children_f32(&rows, orientation, Cell::ROOT))
 }
 
 /// Exactly clipped integrals of the root's children, scalar.

@@ -6,7 +6,7 @@
 //! horizon arcs.
 
 use super::children::GlossyLtc;
-use super::coarse::horizon_point;
+use super::coarse::{horizon_arc_sum, horizon_point};
 use super::parallel_quadrature::{NodeTable, Parallel};
 use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;
@@ -311,27 +311,5 @@ fn horizon_arcs(
     if m.a_up[left] != m.b_up[left] {
         push(m.point[left], m.b_up[left]);
     }
-    let mut sum = 0.0f32;
-    let mut pending_exit: Option<Vec3> = None;
-    let mut first_entry: Option<Vec3> = None;
-    for &(p, exit) in &events[..n] {
-        if exit {
-            pending_exit = Some(p);
-        } else {
-            match pending_exit.take() {
-                Some(q) => sum += arc(q, p),
-                None => first_entry = first_entry.or(Some(p)),
-            }
-        }
-    }
-    if let (Some(q), Some(p)) = (pending_exit, first_entry) {
-        sum += arc(q, p);
-    }
-    sum
-}
-
-#[inline]
-fn arc(q: Vec3, p: Vec3) -> f32 {
-    let (c, k) = unit_edge(q, p);
-    c.z * k
+    horizon_arc_sum(events[..n].iter().copied())
 }

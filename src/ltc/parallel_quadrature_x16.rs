@@ -9,7 +9,7 @@ use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
 use super::parallel_clip::{Meridians, finish};
 use super::parallel_quadrature::{NodeTable, Parallel, node_table, parallels, stride};
 use super::simd::{
-    horizon_points, load16, sincos_turns, splat, spread4, unit_edges, unit_vertices,
+    above_part_z, horizon_points, load16, sincos_turns, splat, spread4, unit_edges, unit_vertices,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -88,18 +88,7 @@ fn meridians_x16(g: &GlossyLtc, z: &[f32; 3], t: &NodeTable) -> Meridians {
         let p = horizon_points(ua, ub);
         px = p[0].to_array();
         py = p[1].to_array();
-        let s = [
-            a_up.bitselect(ua[0], p[0]),
-            a_up.bitselect(ua[1], p[1]),
-            a_up.bitselect(ua[2], p[2]),
-        ];
-        let t = [
-            a_up.bitselect(p[0], ub[0]),
-            a_up.bitselect(p[1], ub[1]),
-            a_up.bitselect(p[2], ub[2]),
-        ];
-        let (c, k) = unit_edges(s, t);
-        clip = crossing.bitselect(c[2] * k, clip);
+        clip = crossing.bitselect(above_part_z(ua, ub, p, a_up), clip);
     }
     let (ez, clip) = (ez.to_array(), clip.to_array());
     let (au, bu) = (a_up.to_bitmask(), b_up.to_bitmask());

@@ -263,6 +263,16 @@ pub fn unit_edges_z(a: &[f32x16; 3], b: &[f32x16; 3]) -> (f32x16, f32x16) {
     (cz, k)
 }
 
+/// z terms of the parts above the horizon of 16 edges a → b that cross
+/// it at p: a → p where a is up, p → b otherwise.
+#[inline(always)]
+pub fn above_part_z(a: [f32x16; 3], b: [f32x16; 3], p: [f32x16; 3], a_up: f32x16) -> f32x16 {
+    let s = std::array::from_fn(|i| a_up.bitselect(a[i], p[i]));
+    let t = std::array::from_fn(|i| a_up.bitselect(p[i], b[i]));
+    let (c, k) = unit_edges(s, t);
+    c[2] * k
+}
+
 /// [`super::coarse::horizon_point`] on 16 lanes.
 #[inline(always)]
 pub fn horizon_points(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {

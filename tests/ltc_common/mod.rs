@@ -207,3 +207,15 @@ pub fn peak(s: &ShadingLtc) -> DVec3 {
         .map(|l| l.peak())
         .unwrap_or(DVec3::Z)
 }
+
+/// A shading frame around a random normal (uniform in a cube, normalised:
+/// not uniform on the sphere, which these tests do not need).
+pub fn random_frame(rng: &mut Rng) -> Frame {
+    let n = Vec3::new(
+        rng.next_f32() - 0.5,
+        rng.next_f32() - 0.5,
+        rng.next_f32() - 0.5,
+    )
+    .normalize();
+    Frame::from_normal(n)
+}
