@@ -296,6 +296,18 @@ fn horizon_arcs(c: &ChildEdges, e: &CoarseEdges) -> f32 {
     }))
 }
 
+/// z term of the part above the horizon of an edge a → b that crosses it
+/// at p: a → p when a is up, p → b otherwise.
+#[inline]
+pub fn above_part_z(ua: Vec3, ub: Vec3, p: Vec3, a_up: bool) -> f32 {
+    let (c, k) = if a_up {
+        unit_edge(ua, p)
+    } else {
+        unit_edge(p, ub)
+    };
+    c.z * k
+}
+
 /// Given a clipped boundary's horizon crossings in winding order, each a
 /// point and whether the boundary leaves the upper half-space there, the
 /// z terms of the horizon arcs that close it: from each exit to the next
@@ -350,12 +362,7 @@ pub fn coarse_children_scalar(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
             e.crossing |= 1u128 << j;
             let p = horizon_point(ua, ub);
             (e.px[j], e.py[j]) = (p.x, p.y);
-            let (c, k) = if a_up {
-                unit_edge(ua, p)
-            } else {
-                unit_edge(p, ub)
-            };
-            c.z * k
+            above_part_z(ua, ub, p, a_up)
         } else if a_up {
             e.ez[j]
         } else {

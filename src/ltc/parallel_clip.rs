@@ -6,7 +6,7 @@
 //! horizon arcs.
 
 use super::children::GlossyLtc;
-use super::coarse::{horizon_arc_sum, horizon_point};
+use super::coarse::{above_part_z, horizon_arc_sum, horizon_point};
 use super::parallel_quadrature::{NodeTable, Parallel};
 use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;
@@ -179,12 +179,7 @@ pub fn meridians_scalar(g: &GlossyLtc, z: &[f32; 3], table: &NodeTable) -> Merid
         m.clip[e] = if a_up != b_up {
             let p = horizon_point(ua, ub);
             m.point[e] = p;
-            let (c, k) = if a_up {
-                unit_edge(ua, p)
-            } else {
-                unit_edge(p, ub)
-            };
-            c.z * k
+            above_part_z(ua, ub, p, a_up)
         } else if a_up {
             m.ez[e]
         } else {
