@@ -10,39 +10,8 @@ use ltcguide::directional::Cell;
 use ltcguide::ltc::children::{LtcOptions, ShadingLtc};
 use ltcguide::ltc::polygon::clipped_cosine_integral_f64;
 use ltcguide::ltc::table::LtcTable;
-use ltcguide::math::Frame;
+use ltcguide::math::{Frame, gauss_legendre};
 use std::f64::consts::PI;
-
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    // Newton on P_n, nodes on [-1, 1].
-    let mut v = Vec::new();
-    for i in 0..n {
-        let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-            let dx = p1 / dp;
-            x -= dx;
-            if dx.abs() < 1e-15 {
-                break;
-            }
-        }
-        let (mut p0, mut p1) = (1.0, x);
-        for k in 2..=n {
-            let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-            p0 = p1;
-            p1 = p2;
-        }
-        let dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-        v.push((x, 2.0 / ((1.0 - x * x) * dp * dp)));
-    }
-    v
-}
 
 #[derive(Clone, Copy)]
 enum Rule {

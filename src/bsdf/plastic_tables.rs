@@ -13,6 +13,7 @@
 
 use super::fresnel::{fresnel_dielectric, reflect, refract};
 use super::microfacet::Ggx;
+use crate::math::gauss_legendre;
 use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
@@ -123,35 +124,6 @@ fn integrate_visible(distr: &Ggx, wi: Vec3, rule: &[(f64, f64)], f: impl Fn(Vec3
     sum
 }
 
-/// Gauss–Legendre nodes and weights on [−1, 1] (Newton iteration on the
-/// Legendre recurrence, f64).
-pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        // Tricomi's initial guess for the i-th root.
-        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut dp = 1.0;
-        for _ in 0..100 {
-            let (mut p0, mut p1) = (1.0f64, x);
-            for k in 2..=n {
-                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-                p0 = p1;
-                p1 = p2;
-            }
-            let p = if n == 0 { 1.0 } else { p1 };
-            dp = n as f64 * (x * p - p0) / (x * x - 1.0);
-            let dx = p / dp;
-            x -= dx;
-            if dx.abs() < 1e-15 {
-                break;
-            }
-        }
-        let w = 2.0 / ((1.0 - x * x) * dp * dp);
-        out.push((x, w));
-    }
-    out
-}
-
 /// The interned table for (α, η). Keys are the exact bit patterns of the
 /// clamped α and η, so two materials share a table only if Mitsuba would
 /// have computed bit-identical ones.
@@ -178,16 +150,6 @@ pub fn table_for(alpha: f32, eta: f32) -> &'static RoughPlasticTable {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn gauss_legendre_integrates_polynomials_exactly() {
-        let rule = gauss_legendre(8);
-        let s: f64 = rule.iter().map(|&(_, w)| w).sum();
-        assert!((s - 2.0).abs() < 1e-13);
-        // Degree 14 ≤ 2n − 1: ∫ x¹⁴ = 2/15.
-        let s: f64 = rule.iter().map(|&(x, w)| w * x.powi(14)).sum();
-        assert!((s - 2.0 / 15.0).abs() < 1e-13);
-    }
 
     #[test]
     fn smooth_limit_matches_fresnel() {

@@ -35,6 +35,7 @@ use super::fast_math::{PolyLane, RSQRT_FLOOR, rsqrt};
 use super::parallel_clip::{finish, meridians_scalar};
 use super::polygon::sincos_turns;
 use crate::directional::Cell;
+use crate::math::gauss_legendre;
 use glam::Vec3;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -77,32 +78,6 @@ struct Rule {
     w: [f32; 32],
 }
 
-fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
-    let legendre = |x: f64| {
-        let (mut p0, mut p1) = (1.0, x);
-        for k in 2..=n {
-            let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
-            (p0, p1) = (p1, p2);
-        }
-        (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
-    };
-    (0..n)
-        .map(|i| {
-            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            for _ in 0..100 {
-                let (p, dp) = legendre(x);
-                let dx = p / dp;
-                x -= dx;
-                if dx.abs() < 1e-16 {
-                    break;
-                }
-            }
-            let (_, dp) = legendre(x);
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
-        .unzip()
-}
-
 fn rule(n: usize) -> &'static Rule {
     static RULES: [OnceLock<Rule>; 4] = [const { OnceLock::new() }; 4];
     let i = NODE_COUNTS
@@ -110,7 +85,7 @@ fn rule(n: usize) -> &'static Rule {
         .position(|&m| m == n)
         .expect("node count");
     RULES[i].get_or_init(|| {
-        let (x, w) = gauss_legendre(n);
+        let (x, w): (Vec<f64>, Vec<f64>) = gauss_legendre(n).into_iter().unzip();
         let mut r = Rule {
             x: [0.0; 32],
             w: [0.0; 32],
@@ -141,7 +116,7 @@ pub struct NodeTable {
 
 fn build_node_table(depth: u32, iy: u32, n: usize) -> NodeTable {
     let span = 1.0 / (1u64 << (depth + 1)) as f64;
-    let (x, w) = gauss_legendre(n);
+    let (x, w): (Vec<f64>, Vec<f64>) = gauss_legendre(n).into_iter().unzip();
     let s = stride(n);
     let mut t = NodeTable {
         cos: vec![1.0; 2 * s],
