@@ -202,3 +202,44 @@ fn compare_nee_choice_reaches_every_method() {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+/// A window ratio below 1 (or not a number) would make every ADRRS
+/// decision invalid and switch roulette off silently: render and compare
+/// refuse it with exit code 2 and one error line.
+#[test]
+fn adrrs_window_below_one_is_refused() {
+    let dir = std::env::temp_dir().join(format!("ltcguide-window-{}", std::process::id()));
+    for window in ["0.5", "NaN"] {
+        let render = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+            .args([
+                "render",
+                "tests/data/analytic/sphere_over_plane.xml",
+                "--spp",
+                "1",
+            ])
+            .args(["--adrrs-window", window, "--out"])
+            .arg(dir.join("x.exr"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        let compare = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+            .args([
+                "compare",
+                "tests/data/analytic/sphere_over_plane.xml",
+                "--time",
+                "0.1",
+            ])
+            .args(["--reference", "tests/data/analytic/sphere_over_plane.xml"])
+            .args(["--adrrs-window", window, "--out"])
+            .arg(dir.join("out"))
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        for out in [render, compare] {
+            assert_eq!(out.status.code(), Some(2));
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(err.contains("--adrrs-window must be"), "{err}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -27,10 +27,9 @@ pub struct CompareOptions {
     pub path_for: fn(&Scene, Method) -> PathSettings,
     /// Overrides `path_for`'s NEE choice.
     pub nee: NeeChoice,
-    /// Overrides `path_for`'s roulette for the guided methods (`None`: as
-    /// `path_for` says). Unguided path tracing keeps its own, since ADRRS
-    /// needs a guide's adjoint estimates.
-    /// With ADRRS, its window ratio s.
+    /// Overrides `path_for`'s roulette for the guided methods, with ADRRS's
+    /// window ratio s (`None`: as `path_for` says). Unguided path tracing
+    /// keeps its own, since ADRRS needs a guide's adjoint estimates.
     pub guided_roulette: Option<(RouletteMode, f32)>,
     pub progress: bool,
 }

@@ -23,7 +23,8 @@ pub trait WeightModel: Sync {
 
     /// The reflected radiance towards ω_o (the adjoint ADRRS needs), given
     /// the descent's root normaliser Σ_k w_k and the root cells' stored
-    /// radiance L_k (mean radiance over each quarter sphere).
+    /// radiance L_k (mean radiance over each quarter sphere). Called only
+    /// where roulette reads it.
     fn adjoint(
         &self,
         weights: &Self::Weights<'_>,
@@ -67,9 +68,6 @@ impl WeightModel for RadianceModel {
         _root_total: f32,
         root_radiance: [f32; 4],
     ) -> f32 {
-        if !ctx.needs_adjoint {
-            return 0.0;
-        }
         let albedo = ctx.bsdf.albedo_estimate(ctx.wo_local);
         reflected_radiance_estimate(ctx.frame, ctx.wo_local, albedo, root_radiance)
     }
@@ -151,8 +149,12 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         if !(root_total > 0.0 && root_total.is_finite()) {
             return None;
         }
-        let root_radiance = leaf.sampling.nodes()[0].sums;
-        let adjoint = self.model.adjoint(&weights, ctx, root_total, root_radiance);
+        let adjoint = if ctx.needs_adjoint {
+            let root_radiance = leaf.sampling.nodes()[0].sums;
+            self.model.adjoint(&weights, ctx, root_total, root_radiance)
+        } else {
+            0.0
+        };
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,

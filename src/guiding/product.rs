@@ -199,7 +199,6 @@ impl WeightModel for ProductModel<'_> {
     ) -> f32 {
         match weights {
             ProductWeights::Product { .. } => root_total,
-            ProductWeights::RadianceOnly { .. } if !ctx.needs_adjoint => 0.0,
             ProductWeights::RadianceOnly { albedo } => {
                 reflected_radiance_estimate(ctx.frame, ctx.wo_local, *albedo, root_radiance)
             }

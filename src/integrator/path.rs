@@ -194,6 +194,8 @@ pub fn trace_path<G: Guide>(
         let bsdf = material.at(it.uv);
         debug_assert_eq!(bsdf.has_smooth_lobes_only(), smooth_only);
 
+        // Adjoint-driven roulette plays at this vertex (given estimates).
+        let adrrs_here = settings.roulette == RouletteMode::Adrrs && segments >= ADRRS_MIN_SEGMENTS;
         // Next-event estimation at vertices with a non-delta component.
         let mut guide_vertex = None;
         if !smooth_only {
@@ -203,15 +205,14 @@ pub fn trace_path<G: Guide>(
                 frame: &it.frame,
                 wo_local: wo,
                 bsdf: &bsdf,
-                needs_adjoint: settings.roulette == RouletteMode::Adrrs
-                    && segments >= ADRRS_MIN_SEGMENTS,
+                needs_adjoint: adrrs_here,
             });
         }
         // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected
         // contribution of everything from this vertex on is throughput ×
         // reflected radiance; keep it near the pixel's value.
         let mut adrrs_applied = false;
-        if settings.roulette == RouletteMode::Adrrs && segments >= ADRRS_MIN_SEGMENTS {
+        if adrrs_here {
             if let Some(adjoint) = guide_vertex.as_ref().and_then(|g| g.adjoint_estimate()) {
                 if pixel_estimate > 0.0 {
                     adrrs_applied = true;
