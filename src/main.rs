@@ -5,6 +5,7 @@ use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::{read_image, write_rgb};
 use ltcguide::film::metrics::{mae, relmse};
 use ltcguide::film::png_io::write_png;
+use ltcguide::guiding::product::CosineLobes;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::ltc::ProductKernel;
 use ltcguide::render::{Budget, Method, RenderOptions, render};
@@ -79,6 +80,9 @@ struct CompareArgs {
     /// ADRRS's weight-window ratio s for the guided methods (as for render).
     #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
     adrrs_window: f32,
+    /// Product guiding at vertices whose lobes are all cosines (as for render).
+    #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
+    cosine_lobes: CosineLobes,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -130,6 +134,12 @@ struct RenderArgs {
     /// Product guiding: child-integral implementation (the paper's Table 1 variants).
     #[arg(long, value_enum, default_value_t = KernelArg::Simd)]
     product_kernel: KernelArg,
+    /// Product guiding at vertices whose lobes are all cosines (diffuse,
+    /// GGX with α > 0.5): `radiance` weights (default; the cosine product
+    /// measured at half their efficiency, docs/results-reading.md) or the
+    /// paper's cosine `product`.
+    #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
+    cosine_lobes: CosineLobes,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -268,6 +278,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
+        cosine_lobes: args.cosine_lobes,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
     };
@@ -301,7 +312,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     }
     eprintln!(
         "{}",
-        ltcguide::plan::plan(&scene, opts.method, opts.path.nee).line()
+        ltcguide::plan::plan(&scene, opts.method, opts.path.nee, opts.cosine_lobes).line()
     );
     let result = render(&scene, &opts)?;
     write_rgb(
@@ -418,6 +429,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         path_for: default_path_settings,
         nee: args.nee,
         guided_roulette: Some((args.guided_rr, args.adrrs_window)),
+        cosine_lobes: args.cosine_lobes,
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;

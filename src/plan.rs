@@ -3,10 +3,14 @@
 //!
 //! - only delta (smooth) materials → no guiding at all: there is no vertex
 //!   a guide could serve, so the guided methods render as `pt`;
-//! - no GGX lobe with α ≤ 0.5 → no LTC transform work (every lobe is
-//!   integrated as a cosine); no GGX lobe at all → no table lookups;
-//! - no diffuse-like lobe → the precomputed diffuse form factors are never
-//!   built (they are built lazily on first use);
+//! - no GGX lobe with α ≤ 0.5 → no LTC transform work; with the default
+//!   `CosineLobes::Radiance` every vertex then takes radiance weights, so
+//!   the product run is radiance guiding (no table, no form factors, no
+//!   weights check); with the paper's cosine product every lobe is
+//!   integrated as a cosine, and no GGX lobe at all → no table lookups;
+//! - no cosine lobe that the product integrates (with radiance weights at
+//!   cosine vertices: none beside a glossy lobe) → the precomputed diffuse
+//!   form factors are never built (they are built lazily on first use);
 //! - no environment → no environment sampling (no envmap distribution is
 //!   built; the light list has no infinite light).
 //!
@@ -15,6 +19,7 @@
 //! reported in the stats, next to this plan.
 
 use crate::bsdf::MaterialKind;
+use crate::guiding::product::CosineLobes;
 use crate::render::Method;
 use crate::scene::Scene;
 use serde::Serialize;
@@ -35,6 +40,9 @@ pub struct ScenePlan {
     pub ltc_table: bool,
     /// Cosine lobes (diffuse, plastic bases, rough GGX) use the form factors.
     pub diffuse_form_factors: bool,
+    /// Some vertex takes product weights (false: a product run is radiance
+    /// guiding, every vertex being a cosine one with radiance weights).
+    pub product_weights: bool,
     pub environment_sampling: bool,
     pub nee: bool,
     pub reasons: Vec<String>,
@@ -68,6 +76,9 @@ pub struct LobeInventory {
     pub glossy: bool,
     pub rough_ggx: bool,
     pub non_delta: bool,
+    /// A material with a cosine lobe beside a glossy one (rough plastic
+    /// with α ≤ 0.5 and a diffuse base).
+    pub mixed: bool,
 }
 
 pub fn lobe_inventory(scene: &Scene) -> LobeInventory {
@@ -110,6 +121,7 @@ pub fn lobe_inventory(scene: &Scene) -> LobeInventory {
                 ggx(*alpha, &mut inv);
                 if !diffuse_reflectance.is_black() {
                     inv.diffuse = true;
+                    inv.mixed |= *alpha <= ROUGH_AS_DIFFUSE_ABOVE;
                 }
             }
             MaterialKind::Plastic {
@@ -129,7 +141,7 @@ pub fn lobe_inventory(scene: &Scene) -> LobeInventory {
     inv
 }
 
-pub fn plan(scene: &Scene, requested: Method, nee: bool) -> ScenePlan {
+pub fn plan(scene: &Scene, requested: Method, nee: bool, cosine_lobes: CosineLobes) -> ScenePlan {
     let inv = lobe_inventory(scene);
     let mut reasons = Vec::new();
     let guided = requested != Method::Pt;
@@ -139,11 +151,27 @@ pub fn plan(scene: &Scene, requested: Method, nee: bool) -> ScenePlan {
     }
     let method = if guiding { requested } else { Method::Pt };
     let product = method == Method::Product;
+    let cosine_product = cosine_lobes == CosineLobes::Product;
+    let product_weights = product && (inv.glossy || cosine_product);
     if product && !inv.glossy {
-        reasons.push("no glossy lobe: the product uses only cosine lobes and form factors".into());
+        reasons.push(if cosine_product {
+            "no glossy lobe: the product uses only cosine lobes and form factors".into()
+        } else {
+            "no glossy lobe: every vertex takes radiance weights (cosine lobes; --cosine-lobes product for the paper's cosine product), so this run is radiance guiding".into()
+        });
     }
-    if product && !inv.diffuse {
-        reasons.push("no diffuse lobe: no form factors".into());
+    let form_factors = product
+        && if cosine_product {
+            inv.diffuse
+        } else {
+            inv.mixed
+        };
+    if product && inv.glossy && !form_factors {
+        reasons.push(if inv.diffuse {
+            "no cosine lobe beside a glossy one: cosine vertices take radiance weights, no form factors".into()
+        } else {
+            "no diffuse lobe: no form factors".into()
+        });
     }
     let env = scene.lights.has_infinite();
     ScenePlan {
@@ -151,8 +179,9 @@ pub fn plan(scene: &Scene, requested: Method, nee: bool) -> ScenePlan {
         method,
         guiding,
         ltc_glossy: product && inv.glossy,
-        ltc_table: product && (inv.glossy || inv.rough_ggx),
-        diffuse_form_factors: product && inv.diffuse,
+        ltc_table: product && (inv.glossy || (cosine_product && inv.rough_ggx)),
+        diffuse_form_factors: form_factors,
+        product_weights,
         environment_sampling: env,
         nee,
         reasons,

@@ -3,7 +3,7 @@
 
 use crate::film::image::{Film, Image};
 use crate::guiding::guide::RadianceModel;
-use crate::guiding::product::ProductModel;
+use crate::guiding::product::{CosineLobes, ProductModel};
 use crate::guiding::sdtree::SdTree;
 use crate::guiding::train::{GuidingStats, render_guided};
 use crate::ltc::{LtcTable, ProductKernel};
@@ -138,6 +138,8 @@ pub struct RenderOptions {
     pub bsdf_fraction: Option<f32>,
     /// Product guiding: which child-integral implementation.
     pub product_kernel: ProductKernel,
+    /// Product guiding: the weights of vertices whose lobes are all cosines.
+    pub cosine_lobes: CosineLobes,
     /// Follow the per-scene plan (and drop guiding where it does not pay).
     /// Off only for measuring what the plan saves.
     pub use_plan: bool,
@@ -164,6 +166,7 @@ impl Default for RenderOptions {
             snapshot_times: Vec::new(),
             bsdf_fraction: None,
             product_kernel: ProductKernel::default(),
+            cosine_lobes: CosineLobes::default(),
             use_plan: true,
             spatial_threshold: None,
         }
@@ -274,7 +277,7 @@ fn process_cpu_seconds() -> f64 {
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
-    let mut plan = crate::plan::plan(scene, opts.method, opts.path.nee);
+    let mut plan = crate::plan::plan(scene, opts.method, opts.path.nee, opts.cosine_lobes);
     if !opts.use_plan {
         plan.method = opts.method;
         plan.guiding = opts.method != Method::Pt;
@@ -325,6 +328,16 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                     &mut snapshots,
                     bar.as_ref(),
                 )),
+                // Every vertex would take radiance weights: the run is
+                // radiance guiding, without the LTC table or a weights check.
+                Method::Product if opts.use_plan && !plan.product_weights => guided(render_guided(
+                    scene,
+                    opts,
+                    &RadianceModel,
+                    &mut clock,
+                    &mut snapshots,
+                    bar.as_ref(),
+                )),
                 Method::Product => {
                     // Only product guiding needs the LTC table (decoded once per process).
                     let model = ProductModel {
@@ -332,6 +345,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                         kernel: opts.product_kernel,
                         options: crate::guiding::product::guiding_ltc_options(),
                         radiance_only: false,
+                        cosine_lobes: opts.cosine_lobes,
                     };
                     guided(render_guided(
                         scene,

@@ -5,6 +5,7 @@ use ltcguide::experiment::compare::{CompareOptions, run_compare};
 use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
 use ltcguide::film::exr_io::write_rgb;
 use ltcguide::film::image::Image;
+use ltcguide::guiding::product::CosineLobes;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::render::{Budget, Method, RenderOptions, render};
 use ltcguide::scene::{Scene, load_scene};
@@ -56,6 +57,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: Some((RouletteMode::Off, 5.0)),
+        cosine_lobes: CosineLobes::Radiance,
         progress: false,
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -130,6 +132,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
         path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: None,
+        cosine_lobes: CosineLobes::Radiance,
         progress: false,
     };
     let wrong = Image {
@@ -189,6 +192,7 @@ fn compare_nee_choice_reaches_every_method() {
             path_for: settings,
             nee: choice,
             guided_roulette: None,
+            cosine_lobes: CosineLobes::Radiance,
             progress: false,
         };
         let outcome = run_compare(&scene, &reference, &opts).unwrap();

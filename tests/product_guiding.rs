@@ -9,7 +9,7 @@ use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
 use ltcguide::directional::{dir_to_square, square_to_dir};
 use ltcguide::guiding::descent::{self, ChildWeights};
 use ltcguide::guiding::guide::WeightModel;
-use ltcguide::guiding::product::{ProductModel, ProductWeights};
+use ltcguide::guiding::product::{CosineLobes, ProductModel, ProductWeights};
 use ltcguide::guiding::quadtree::{QuadNode, QuadTree};
 use ltcguide::integrator::guide::VertexContext;
 use ltcguide::ltc::{LtcOptions, ProductKernel};
@@ -182,6 +182,7 @@ fn product_sampling_matches_its_pdf_chi2() {
             kernel,
             options: LtcOptions::default(),
             radiance_only: false,
+            cosine_lobes: CosineLobes::Product,
         };
         // The f64 naive kernel is slow; a third of the cases suffice for it.
         let stride = if kernel == ProductKernel::Naive { 3 } else { 1 };
@@ -224,6 +225,7 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
         kernel: ProductKernel::Simd,
         options: LtcOptions::default(),
         radiance_only: false,
+        cosine_lobes: CosineLobes::Product,
     };
     let mut rng = Rng::new(77, 1);
     let tree = random_tree(&mut rng, 200);
@@ -274,6 +276,7 @@ fn pdf_of_a_sampled_direction_is_the_returned_pdf() {
         kernel: ProductKernel::Simd,
         options: LtcOptions::default(),
         radiance_only: false,
+        cosine_lobes: CosineLobes::Product,
     };
     let mut rng = Rng::new(5, 5);
     for case in cases(&mut rng.clone()) {
@@ -302,6 +305,7 @@ fn product_weights_concentrate_where_the_bsdf_is() {
         kernel: ProductKernel::Simd,
         options: LtcOptions::default(),
         radiance_only: false,
+        cosine_lobes: CosineLobes::Product,
     };
     let tree = QuadTree::uniform(1.0);
     let case = Case {
@@ -326,4 +330,107 @@ fn product_weights_concentrate_where_the_bsdf_is() {
     let total = descent::root_total(&tree, &mut w);
     assert!(total > 0.0 && total.is_finite());
     let _ = w.child_weights(ltcguide::directional::Cell::ROOT, [1.0; 4]);
+}
+
+/// With the default `CosineLobes::Radiance`, a vertex whose lobes are all
+/// cosines (a GGX lobe rougher than 0.5, alone or over a diffuse base)
+/// takes radiance weights: its samples and pdfs are radiance guiding's, bit
+/// for bit. A glossy lobe keeps the product, and `CosineLobes::Product`
+/// keeps the paper's cosine product everywhere.
+#[test]
+fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
+    let table = default_ltc_table().unwrap();
+    let model = |cosine_lobes| ProductModel {
+        table,
+        kernel: ProductKernel::Simd,
+        options: LtcOptions::default(),
+        radiance_only: false,
+        cosine_lobes,
+    };
+    let mut rng = Rng::new(11, 4);
+    let tree = random_tree(&mut rng, 200);
+    let case = |alpha, diffuse| Case {
+        alpha,
+        diffuse,
+        theta_o_deg: 30.0,
+        normal: Vec3::new(0.1, 0.2, 0.97).normalize(),
+    };
+    for (alpha, diffuse) in [(1.0, false), (1.0, true), (0.6, true)] {
+        let mut w = weights_for(
+            &case(alpha, diffuse),
+            &model(CosineLobes::Radiance),
+            &mut rng,
+        )
+        .expect("a reflective BSDF");
+        assert!(
+            matches!(w, ProductWeights::RadianceOnly { .. }),
+            "α {alpha}, diffuse {diffuse}"
+        );
+        for _ in 0..500 {
+            let u = rng.next_2d();
+            let s = descent::sample(&tree, &mut w, u);
+            assert_eq!(s, descent::sample(&tree, &mut descent::RadianceWeights, u));
+            let p = s.unwrap().0;
+            assert_eq!(
+                descent::pdf(&tree, &mut w, p).to_bits(),
+                descent::pdf(&tree, &mut descent::RadianceWeights, p).to_bits()
+            );
+        }
+        let paper = weights_for(
+            &case(alpha, diffuse),
+            &model(CosineLobes::Product),
+            &mut rng,
+        );
+        assert!(
+            matches!(paper, Some(ProductWeights::Product { .. })),
+            "α {alpha}, diffuse {diffuse}: the paper's cosine product"
+        );
+    }
+    for diffuse in [false, true] {
+        let glossy = weights_for(
+            &case(0.05, diffuse),
+            &model(CosineLobes::Radiance),
+            &mut rng,
+        );
+        assert!(
+            matches!(glossy, Some(ProductWeights::Product { .. })),
+            "a glossy lobe (diffuse base: {diffuse}) keeps the product"
+        );
+    }
+}
+
+/// On a scene whose lobes are all cosines, the per-scene plan makes a
+/// product run radiance guiding: the same image as the radiance method, bit
+/// for bit, without the LTC table, form factors or a weights check, and the
+/// plan line says why. The paper's cosine product is still there on request.
+#[test]
+fn a_cosine_only_scene_renders_product_as_radiance_guiding() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/analytic/sphere_over_plane.xml");
+    let scene = ltcguide::scene::load_scene(&path).unwrap();
+    let opts = |method, cosine_lobes| ltcguide::render::RenderOptions {
+        method,
+        budget: ltcguide::render::Budget::Spp(8),
+        seed: 3,
+        threads: 1,
+        cosine_lobes,
+        ..Default::default()
+    };
+    use ltcguide::render::{Method, render};
+    let radiance = render(&scene, &opts(Method::Radiance, CosineLobes::Radiance)).unwrap();
+    let product = render(&scene, &opts(Method::Product, CosineLobes::Radiance)).unwrap();
+    assert!(radiance.image.pixels.iter().any(|p| p.x > 0.0));
+    assert_eq!(radiance.image.pixels, product.image.pixels);
+    let plan = product.stats.plan.clone().unwrap();
+    assert!(
+        plan.contains("every vertex takes radiance weights")
+            && plan.contains("ltc table off")
+            && plan.contains("diffuse form factors off"),
+        "{plan}"
+    );
+    assert_eq!(product.stats.guiding.as_ref().unwrap().weights_check, "");
+    let paper = render(&scene, &opts(Method::Product, CosineLobes::Product)).unwrap();
+    assert_ne!(paper.image.pixels, radiance.image.pixels);
+    let plan = paper.stats.plan.unwrap();
+    assert!(plan.contains("diffuse form factors on"), "{plan}");
 }

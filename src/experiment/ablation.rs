@@ -1,7 +1,9 @@
 //! `ltcguide ablation`: the paper's Table 1 — the cost of a fixed number of
 //! samples per pixel for each product kernel, as a percentage of the naive
-//! one — and what the per-scene plan saves.
+//! one, with the paper's cosine product at cosine vertices — and what the
+//! per-scene plan and radiance weights at cosine vertices save.
 
+use crate::guiding::product::CosineLobes;
 use crate::integrator::path::PathSettings;
 use crate::ltc::ProductKernel;
 use crate::render::{Budget, Method, RenderOptions, render};
@@ -38,27 +40,31 @@ pub fn run_ablation(
     path: PathSettings,
     progress: bool,
 ) -> Result<AblationOutcome, String> {
-    let run =
-        |method: Method, kernel: ProductKernel, use_plan: bool| -> Result<AblationRow, String> {
-            let opts = RenderOptions {
-                method,
-                budget: Budget::Spp(spp),
-                seed: 1,
-                threads,
-                path,
-                progress,
-                product_kernel: kernel,
-                use_plan,
-                ..Default::default()
-            };
-            let r = render(scene, &opts)?;
-            Ok(AblationRow {
-                variant: String::new(),
-                seconds: r.stats.seconds,
-                spp: r.stats.spp,
-                paths_per_second: r.stats.paths_per_second,
-            })
+    let run = |method: Method,
+               kernel: ProductKernel,
+               use_plan: bool,
+               cosine_lobes: CosineLobes|
+     -> Result<AblationRow, String> {
+        let opts = RenderOptions {
+            method,
+            budget: Budget::Spp(spp),
+            seed: 1,
+            threads,
+            path,
+            progress,
+            product_kernel: kernel,
+            cosine_lobes,
+            use_plan,
+            ..Default::default()
         };
+        let r = render(scene, &opts)?;
+        Ok(AblationRow {
+            variant: String::new(),
+            seconds: r.stats.seconds,
+            spp: r.stats.spp,
+            paths_per_second: r.stats.paths_per_second,
+        })
+    };
     let mut kernels = Vec::new();
     for k in [
         ProductKernel::Naive,
@@ -68,23 +74,30 @@ pub fn run_ablation(
         if progress {
             eprintln!("ablation: product, {} kernel, {spp} spp", kernel_name(k));
         }
-        let mut row = run(Method::Product, k, true)?;
+        let mut row = run(Method::Product, k, true, CosineLobes::Product)?;
         row.variant = kernel_name(k).to_string();
         kernels.push(row);
     }
     let mut plan = Vec::new();
-    for (name, use_plan) in [
-        ("product, per-scene plan", true),
-        ("product, plan disabled", false),
+    // The last row runs everything: the paper's product at every vertex.
+    for (name, use_plan, cosine_lobes) in [
+        ("product, per-scene plan", true, CosineLobes::Radiance),
+        ("product, plan disabled", false, CosineLobes::Radiance),
+        (
+            "product, plan disabled, cosine product",
+            false,
+            CosineLobes::Product,
+        ),
     ] {
         if progress {
             eprintln!("ablation: {name}, {spp} spp");
         }
-        let mut row = run(Method::Product, ProductKernel::Simd, use_plan)?;
+        let mut row = run(Method::Product, ProductKernel::Simd, use_plan, cosine_lobes)?;
         row.variant = name.to_string();
         plan.push(row);
     }
-    let plan_line = crate::plan::plan(scene, Method::Product, path.nee).line();
+    let plan_line =
+        crate::plan::plan(scene, Method::Product, path.nee, CosineLobes::Radiance).line();
     let naive = kernels[0].seconds.max(1e-9);
     let mut md = String::new();
     let _ = writeln!(
@@ -105,7 +118,7 @@ pub fn run_ablation(
     let _ = writeln!(md, "\n`{plan_line}`\n");
     let _ = writeln!(md, "| run | seconds for {spp} spp | saving |");
     let _ = writeln!(md, "|---|---|---|");
-    let without = plan[1].seconds.max(1e-9);
+    let without = plan[plan.len() - 1].seconds.max(1e-9);
     for r in &plan {
         let _ = writeln!(
             md,

@@ -10,6 +10,7 @@ use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
 use crate::film::metrics::{mae, relmse};
 use crate::film::png_io::{write_png, write_png_rgb8};
+use crate::guiding::product::CosineLobes;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::render::{Budget, Method, RenderOptions, SnapshotPlan, render};
 use crate::scene::Scene;
@@ -31,6 +32,8 @@ pub struct CompareOptions {
     /// window ratio s (`None`: as `path_for` says). Unguided path tracing
     /// keeps its own, since ADRRS needs a guide's adjoint estimates.
     pub guided_roulette: Option<(RouletteMode, f32)>,
+    /// Product guiding's weights at vertices whose lobes are all cosines.
+    pub cosine_lobes: CosineLobes,
     pub progress: bool,
 }
 
@@ -124,6 +127,7 @@ pub fn run_compare(
                 path: path_settings(scene, method, opts),
                 progress: opts.progress,
                 snapshot_times: snapshot_times(opts.seconds),
+                cosine_lobes: opts.cosine_lobes,
                 ..Default::default()
             };
             let result = render(scene, &ropts)?;
@@ -257,7 +261,15 @@ fn summary_markdown(
             if p.roulette == RouletteMode::Adrrs {
                 rr += &format!(" (window s = {})", p.adrrs_window);
             }
-            format!("{}: {nee}, roulette {rr}", method_name(m))
+            let cosine = if m == Method::Product {
+                format!(
+                    ", cosine lobes: {}",
+                    format!("{:?}", opts.cosine_lobes).to_lowercase()
+                )
+            } else {
+                String::new()
+            };
+            format!("{}: {nee}, roulette {rr}{cosine}", method_name(m))
         })
         .collect();
     let _ = writeln!(s, "Path settings: {}.\n", settings.join("; "));
