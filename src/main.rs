@@ -83,6 +83,9 @@ struct CompareArgs {
     /// Product guiding at vertices whose lobes are all cosines (as for render).
     #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
     cosine_lobes: CosineLobes,
+    /// Product guiding: vertices per path with product weights (as for render).
+    #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
+    product_vertices: u32,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -140,6 +143,13 @@ struct RenderArgs {
     /// paper's cosine `product`.
     #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
     cosine_lobes: CosineLobes,
+    /// Product guiding: the first N vertices of each path take product
+    /// weights, deeper ones radiance weights (default 1: deeper vertices'
+    /// product measured at 13–32 % of the run's CPU for no resolvable
+    /// variance, docs/results-reading.md); 0 = every vertex, the paper's
+    /// setting.
+    #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
+    product_vertices: u32,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -279,6 +289,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
         cosine_lobes: args.cosine_lobes,
+        product_vertices: args.product_vertices,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
     };
@@ -430,6 +441,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         nee: args.nee,
         guided_roulette: Some((args.guided_rr, args.adrrs_window)),
         cosine_lobes: args.cosine_lobes,
+        product_vertices: args.product_vertices,
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;

@@ -140,6 +140,9 @@ pub struct RenderOptions {
     pub product_kernel: ProductKernel,
     /// Product guiding: the weights of vertices whose lobes are all cosines.
     pub cosine_lobes: CosineLobes,
+    /// Product guiding: the first this many vertices of a path take product
+    /// weights (0: every vertex).
+    pub product_vertices: u32,
     /// Follow the per-scene plan (and drop guiding where it does not pay).
     /// Off only for measuring what the plan saves.
     pub use_plan: bool,
@@ -167,6 +170,7 @@ impl Default for RenderOptions {
             bsdf_fraction: None,
             product_kernel: ProductKernel::default(),
             cosine_lobes: CosineLobes::default(),
+            product_vertices: crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
             use_plan: true,
             spatial_threshold: None,
         }
@@ -346,6 +350,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                         options: crate::guiding::product::guiding_ltc_options(),
                         radiance_only: false,
                         cosine_lobes: opts.cosine_lobes,
+                        product_vertices: opts.product_vertices,
                     };
                     guided(render_guided(
                         scene,

@@ -58,6 +58,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: Some((RouletteMode::Off, 5.0)),
         cosine_lobes: CosineLobes::Radiance,
+        product_vertices: 1,
         progress: false,
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -133,6 +134,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: None,
         cosine_lobes: CosineLobes::Radiance,
+        product_vertices: 1,
         progress: false,
     };
     let wrong = Image {
@@ -193,6 +195,7 @@ fn compare_nee_choice_reaches_every_method() {
             nee: choice,
             guided_roulette: None,
             cosine_lobes: CosineLobes::Radiance,
+            product_vertices: 1,
             progress: false,
         };
         let outcome = run_compare(&scene, &reference, &opts).unwrap();

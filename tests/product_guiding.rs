@@ -121,6 +121,7 @@ fn weights_for(case: &Case, model: &ProductModel, rng: &mut Rng) -> Option<Produ
         wo_local: wo,
         bsdf: &bsdf,
         needs_adjoint: false,
+        vertex_index: 0,
     };
     model.weights(&ctx)
 }
@@ -183,6 +184,7 @@ fn product_sampling_matches_its_pdf_chi2() {
             options: LtcOptions::default(),
             radiance_only: false,
             cosine_lobes: CosineLobes::Product,
+            product_vertices: 0,
         };
         // The f64 naive kernel is slow; a third of the cases suffice for it.
         let stride = if kernel == ProductKernel::Naive { 3 } else { 1 };
@@ -226,6 +228,7 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
         options: LtcOptions::default(),
         radiance_only: false,
         cosine_lobes: CosineLobes::Product,
+        product_vertices: 0,
     };
     let mut rng = Rng::new(77, 1);
     let tree = random_tree(&mut rng, 200);
@@ -277,6 +280,7 @@ fn pdf_of_a_sampled_direction_is_the_returned_pdf() {
         options: LtcOptions::default(),
         radiance_only: false,
         cosine_lobes: CosineLobes::Product,
+        product_vertices: 0,
     };
     let mut rng = Rng::new(5, 5);
     for case in cases(&mut rng.clone()) {
@@ -306,6 +310,7 @@ fn product_weights_concentrate_where_the_bsdf_is() {
         options: LtcOptions::default(),
         radiance_only: false,
         cosine_lobes: CosineLobes::Product,
+        product_vertices: 0,
     };
     let tree = QuadTree::uniform(1.0);
     let case = Case {
@@ -346,6 +351,7 @@ fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
         options: LtcOptions::default(),
         radiance_only: false,
         cosine_lobes,
+        product_vertices: 0,
     };
     let mut rng = Rng::new(11, 4);
     let tree = random_tree(&mut rng, 200);
@@ -433,4 +439,49 @@ fn a_cosine_only_scene_renders_product_as_radiance_guiding() {
     assert_ne!(paper.image.pixels, radiance.image.pixels);
     let plan = paper.stats.plan.unwrap();
     assert!(plan.contains("diffuse form factors on"), "{plan}");
+}
+
+/// `product_vertices = N` keeps product weights at the first N vertices of
+/// a path and gives deeper ones radiance weights; 0 keeps the product at
+/// every vertex.
+#[test]
+fn only_the_first_vertices_take_product_weights() {
+    let table = default_ltc_table().unwrap();
+    let bsdf = material(0.05, true).at(Vec2::ZERO);
+    let frame = Frame::from_normal(Vec3::Z);
+    let wo = Vec3::new(0.3, 0.1, 0.95).normalize();
+    for (product_vertices, index, product) in [
+        (1, 0, true),
+        (1, 1, false),
+        (1, 7, false),
+        (3, 2, true),
+        (3, 3, false),
+        (0, 0, true),
+        (0, 9, true),
+    ] {
+        let model = ProductModel {
+            table,
+            kernel: ProductKernel::Simd,
+            options: LtcOptions::default(),
+            radiance_only: false,
+            cosine_lobes: CosineLobes::Radiance,
+            product_vertices,
+        };
+        let ctx = VertexContext {
+            p: Vec3::ZERO,
+            ng: Vec3::Z,
+            frame: &frame,
+            wo_local: wo,
+            bsdf: &bsdf,
+            needs_adjoint: false,
+            vertex_index: index,
+        };
+        let w = model.weights(&ctx);
+        assert_eq!(
+            matches!(w, Some(ProductWeights::Product { .. })),
+            product,
+            "product at the first {product_vertices} vertices, vertex {index}"
+        );
+        assert!(w.is_some());
+    }
 }

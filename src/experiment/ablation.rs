@@ -1,7 +1,8 @@
 //! `ltcguide ablation`: the paper's Table 1 — the cost of a fixed number of
 //! samples per pixel for each product kernel, as a percentage of the naive
-//! one, with the paper's cosine product at cosine vertices — and what the
-//! per-scene plan and radiance weights at cosine vertices save.
+//! one, with the paper's product at every vertex, cosine lobes included —
+//! and what the per-scene plan and radiance weights at deeper and cosine
+//! vertices save.
 
 use crate::guiding::product::CosineLobes;
 use crate::integrator::path::PathSettings;
@@ -43,7 +44,7 @@ pub fn run_ablation(
     let run = |method: Method,
                kernel: ProductKernel,
                use_plan: bool,
-               cosine_lobes: CosineLobes|
+               paper: bool|
      -> Result<AblationRow, String> {
         let opts = RenderOptions {
             method,
@@ -53,7 +54,17 @@ pub fn run_ablation(
             path,
             progress,
             product_kernel: kernel,
-            cosine_lobes,
+            // The paper's product: at every vertex, cosine lobes included.
+            cosine_lobes: if paper {
+                CosineLobes::Product
+            } else {
+                CosineLobes::Radiance
+            },
+            product_vertices: if paper {
+                0
+            } else {
+                crate::guiding::product::DEFAULT_PRODUCT_VERTICES
+            },
             use_plan,
             ..Default::default()
         };
@@ -74,25 +85,25 @@ pub fn run_ablation(
         if progress {
             eprintln!("ablation: product, {} kernel, {spp} spp", kernel_name(k));
         }
-        let mut row = run(Method::Product, k, true, CosineLobes::Product)?;
+        let mut row = run(Method::Product, k, true, true)?;
         row.variant = kernel_name(k).to_string();
         kernels.push(row);
     }
     let mut plan = Vec::new();
     // The last row runs everything: the paper's product at every vertex.
-    for (name, use_plan, cosine_lobes) in [
-        ("product, per-scene plan", true, CosineLobes::Radiance),
-        ("product, plan disabled", false, CosineLobes::Radiance),
+    for (name, use_plan, paper) in [
+        ("product, per-scene plan", true, false),
+        ("product, plan disabled", false, false),
         (
-            "product, plan disabled, cosine product",
+            "product, plan disabled, at every vertex, cosine product",
             false,
-            CosineLobes::Product,
+            true,
         ),
     ] {
         if progress {
             eprintln!("ablation: {name}, {spp} spp");
         }
-        let mut row = run(Method::Product, ProductKernel::Simd, use_plan, cosine_lobes)?;
+        let mut row = run(Method::Product, ProductKernel::Simd, use_plan, paper)?;
         row.variant = name.to_string();
         plan.push(row);
     }

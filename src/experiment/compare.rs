@@ -34,6 +34,8 @@ pub struct CompareOptions {
     pub guided_roulette: Option<(RouletteMode, f32)>,
     /// Product guiding's weights at vertices whose lobes are all cosines.
     pub cosine_lobes: CosineLobes,
+    /// Product guiding's vertices per path with product weights (0: all).
+    pub product_vertices: u32,
     pub progress: bool,
 }
 
@@ -128,6 +130,7 @@ pub fn run_compare(
                 progress: opts.progress,
                 snapshot_times: snapshot_times(opts.seconds),
                 cosine_lobes: opts.cosine_lobes,
+                product_vertices: opts.product_vertices,
                 ..Default::default()
             };
             let result = render(scene, &ropts)?;
@@ -262,8 +265,13 @@ fn summary_markdown(
                 rr += &format!(" (window s = {})", p.adrrs_window);
             }
             let cosine = if m == Method::Product {
+                let vertices = match opts.product_vertices {
+                    0 => "every vertex".to_string(),
+                    1 => "the first vertex".to_string(),
+                    n => format!("the first {n} vertices"),
+                };
                 format!(
-                    ", cosine lobes: {}",
+                    ", product at {vertices}, cosine lobes: {}",
                     format!("{:?}", opts.cosine_lobes).to_lowercase()
                 )
             } else {

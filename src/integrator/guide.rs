@@ -16,6 +16,8 @@ pub struct VertexContext<'a> {
     /// Whether roulette will ask this vertex for its adjoint estimate (an
     /// estimate that costs work is then skipped where nothing reads it).
     pub needs_adjoint: bool,
+    /// Index of the vertex along its path (0: the camera ray's hit).
+    pub vertex_index: u32,
 }
 
 /// A per-vertex guiding distribution over world directions, mixed with BSDF

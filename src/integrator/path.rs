@@ -206,6 +206,7 @@ pub fn trace_path<G: Guide>(
                 wo_local: wo,
                 bsdf: &bsdf,
                 needs_adjoint: adrrs_here,
+                vertex_index: segments - 1,
             });
         }
         // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected
