@@ -7,9 +7,10 @@
 # Every number in the page is what the commands below print.
 #
 # Usage: scripts/roulette_study.sh [SECONDS_PER_RUN] [RUNS] [SCENES] [ROULETTES]
-#   ROULETTES: the parts to (re)run, default "classic adrrs"; the page is
-#   rebuilt from every part under docs/study, each stamped with when and
-#   by which commit it ran (docs/study/<rr>/RUN).
+#   ROULETTES: the parts to (re)run, default "classic adrrs". The page is
+#   rebuilt from every scene under docs/study, each stamped with when and
+#   by which commit it ran (docs/study/<rr>/<scene>/RUN), so a subset can be
+#   rerun without losing the others.
 # Needs ../shared/scenes. Takes about SCENES × 5 × RUNS × SECONDS
 # (pt, radiance and product with classic roulette; radiance and product
 # with ADRRS).
@@ -40,12 +41,21 @@ for rr in $ROULETTES; do
     "$BIN" compare "$PACK/$scene/scene.xml" --reference "$PACK/$scene/reference.exr" \
       --time "$SECONDS_PER_RUN" --runs "$RUNS" --methods "$methods" --nee all \
       --guided-rr "$rr" --out "$OUT/$rr/$scene" > /dev/null
+    echo "\`roulette_study.sh $SECONDS_PER_RUN $RUNS '$scene' $rr\` finished $(date -u '+%Y-%m-%d %H:%M UTC'), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) threads, ltcguide $(git rev-parse --short HEAD 2>/dev/null || echo unknown)" > "$OUT/$rr/$scene/RUN"
   done
-  echo "\`roulette_study.sh $SECONDS_PER_RUN $RUNS '$SCENES' $rr\` on $(date -u '+%Y-%m-%d %H:%M UTC'), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) threads, ltcguide $(git rev-parse --short HEAD 2>/dev/null || echo unknown)" > "$OUT/$rr/RUN"
+done
+# Every scene with results, in the pack's order.
+ALL_SCENES=""
+for scene in cornell-box veach-mis veach-ajar staircase living-room; do
+  if [ -f "$OUT/classic/$scene/summary.md" ] || [ -f "$OUT/adrrs/$scene/summary.md" ]; then
+    ALL_SCENES="$ALL_SCENES $scene"
+  fi
 done
 {
   for rr in classic adrrs; do
-    [ -f "$OUT/$rr/RUN" ] && echo "- $rr: $(cat "$OUT/$rr/RUN")"
+    for scene in $ALL_SCENES; do
+      if [ -f "$OUT/$rr/$scene/RUN" ]; then echo "- $rr, $scene: $(cat "$OUT/$rr/$scene/RUN")"; fi
+    done
   done
   echo
   echo "Every method uses NEE with MIS; within a part, runs of the methods are interleaved (run 1 of"
@@ -68,7 +78,8 @@ done
   echo
 } >> "$PAGE"
 for rr in classic adrrs; do
-  for scene in $SCENES; do
+  for scene in $ALL_SCENES; do
+    [ -f "$OUT/$rr/$scene/summary.md" ] || continue
     {
       echo "## $scene, guided roulette $rr"
       echo
