@@ -311,7 +311,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                     Some(out.tree),
                 )
             };
-            Ok(match opts.method {
+            // A product run where every vertex would take radiance weights
+            // is radiance guiding, without the LTC table or a weights check.
+            let runs = match opts.method {
+                Method::Product if opts.use_plan && !plan.product_weights => Method::Radiance,
+                m => m,
+            };
+            Ok(match runs {
                 Method::Pt => {
                     let (film, counters) =
                         render_unguided(scene, opts, &mut clock, &mut snapshots, bar.as_ref());
@@ -325,16 +331,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                     )
                 }
                 Method::Radiance => guided(render_guided(
-                    scene,
-                    opts,
-                    &RadianceModel,
-                    &mut clock,
-                    &mut snapshots,
-                    bar.as_ref(),
-                )),
-                // Every vertex would take radiance weights: the run is
-                // radiance guiding, without the LTC table or a weights check.
-                Method::Product if opts.use_plan && !plan.product_weights => guided(render_guided(
                     scene,
                     opts,
                     &RadianceModel,
