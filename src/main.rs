@@ -323,7 +323,14 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     }
     eprintln!(
         "{}",
-        ltcguide::plan::plan(&scene, opts.method, opts.path.nee, opts.cosine_lobes).line()
+        ltcguide::plan::plan(
+            &scene,
+            opts.method,
+            opts.path.nee,
+            opts.cosine_lobes,
+            opts.product_vertices,
+        )
+        .line()
     );
     let result = render(&scene, &opts)?;
     write_rgb(

@@ -141,7 +141,15 @@ pub fn lobe_inventory(scene: &Scene) -> LobeInventory {
     inv
 }
 
-pub fn plan(scene: &Scene, requested: Method, nee: bool, cosine_lobes: CosineLobes) -> ScenePlan {
+/// The plan of a run; `cosine_lobes` and `product_vertices` are product
+/// guiding's settings (see `guiding::product`).
+pub fn plan(
+    scene: &Scene,
+    requested: Method,
+    nee: bool,
+    cosine_lobes: CosineLobes,
+    product_vertices: u32,
+) -> ScenePlan {
     let inv = lobe_inventory(scene);
     let mut reasons = Vec::new();
     let guided = requested != Method::Pt;
@@ -158,6 +166,15 @@ pub fn plan(scene: &Scene, requested: Method, nee: bool, cosine_lobes: CosineLob
             "no glossy lobe: the product uses only cosine lobes and form factors".into()
         } else {
             "no glossy lobe: every vertex takes radiance weights (cosine lobes; --cosine-lobes product for the paper's cosine product), so this run is radiance guiding".into()
+        });
+    }
+    if product_weights {
+        reasons.push(match product_vertices {
+            0 => "product weights at every vertex".into(),
+            1 => "product weights at the first vertex of each path, radiance weights deeper".into(),
+            n => format!(
+                "product weights at the first {n} vertices of each path, radiance weights deeper"
+            ),
         });
     }
     let form_factors = product

@@ -281,7 +281,13 @@ fn process_cpu_seconds() -> f64 {
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
-    let mut plan = crate::plan::plan(scene, opts.method, opts.path.nee, opts.cosine_lobes);
+    let mut plan = crate::plan::plan(
+        scene,
+        opts.method,
+        opts.path.nee,
+        opts.cosine_lobes,
+        opts.product_vertices,
+    );
     if !opts.use_plan {
         plan.method = opts.method;
         plan.guiding = opts.method != Method::Pt;

@@ -439,6 +439,10 @@ fn a_cosine_only_scene_renders_product_as_radiance_guiding() {
     assert_ne!(paper.image.pixels, radiance.image.pixels);
     let plan = paper.stats.plan.unwrap();
     assert!(plan.contains("diffuse form factors on"), "{plan}");
+    assert!(
+        plan.contains("product weights at the first vertex of each path"),
+        "{plan}"
+    );
 }
 
 /// `product_vertices = N` keeps product weights at the first N vertices of

@@ -107,8 +107,14 @@ pub fn run_ablation(
         row.variant = name.to_string();
         plan.push(row);
     }
-    let plan_line =
-        crate::plan::plan(scene, Method::Product, path.nee, CosineLobes::Radiance).line();
+    let plan_line = crate::plan::plan(
+        scene,
+        Method::Product,
+        path.nee,
+        CosineLobes::Radiance,
+        crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
+    )
+    .line();
     let naive = kernels[0].seconds.max(1e-9);
     let mut md = String::new();
     let _ = writeln!(
