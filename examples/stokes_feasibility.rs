@@ -245,6 +245,13 @@ fn main() {
     };
     println!("alpha theta level | method: max, mean of |err|/max(parent, 1e-3)");
     for &alpha in &[1e-3f32, 0.01, 0.1, 0.3, 1.0] {
+        let lobes = Lobes {
+            diffuse: 0.0,
+            ggx: [GgxLobe { weight: 1.0, alpha }],
+            ggx_count: 1,
+            delta: 0.0,
+            side: 1.0,
+        };
         for &theta in &[0.0f64, 45.0, 80.0, 89.9] {
             let t = theta.to_radians();
             let wo = Vec3::new(
@@ -255,15 +262,9 @@ fn main() {
             for &level in &levels {
                 let mut stats = vec![(0.0f64, 0.0f64, 0usize); rules.len()];
                 for frame in &frames {
-                    let lobes = Lobes {
-                        diffuse: 0.0,
-                        ggx: [GgxLobe { weight: 1.0, alpha }],
-                        ggx_count: 1,
-                        delta: 0.0,
-                        side: 1.0,
-                    };
                     let s = ShadingLtc::new(&lobes, frame, wo, &table, &opts);
                     let g = s.glossy[0];
+                    let kf = ltcguide::math::frobenius_condition(&g.a64);
                     let pk = g.a64.inverse() * DVec3::Z;
                     let l = Lobe {
                         a: g.a64,
@@ -284,16 +285,6 @@ fn main() {
                             });
                             let parent = refs.iter().sum::<f64>().max(1e-3);
                             for (ri, (_, rule)) in rules.iter().enumerate() {
-                                let kf = {
-                                    let a = g.a64;
-                                    let f = |m: DMat3| {
-                                        (m.x_axis.length_squared()
-                                            + m.y_axis.length_squared()
-                                            + m.z_axis.length_squared())
-                                        .sqrt()
-                                    };
-                                    f(a) * f(a.inverse())
-                                };
                                 let span = 1.0 / (1u64 << level) as f64;
                                 let rule = &match rule {
                                     Rule::Adapt(x) => [4usize, 8, 16, 32]
@@ -331,13 +322,6 @@ fn main() {
                     }
                 }
                 let cond = {
-                    let lobes = Lobes {
-                        diffuse: 0.0,
-                        ggx: [GgxLobe { weight: 1.0, alpha }],
-                        ggx_count: 1,
-                        delta: 0.0,
-                        side: 1.0,
-                    };
                     let a = ShadingLtc::new(&lobes, &frames[0], wo, &table, &opts).glossy[0].a64;
                     let q = a.transpose() * a;
                     // power iteration for max and min eigenvalues
@@ -354,30 +338,9 @@ fn main() {
                     let lmin = 1.0 / v.dot(qi * v);
                     (lmax / lmin).sqrt()
                 };
-                let kf = {
-                    let a = ShadingLtc::new(
-                        &Lobes {
-                            diffuse: 0.0,
-                            ggx: [GgxLobe { weight: 1.0, alpha }],
-                            ggx_count: 1,
-                            delta: 0.0,
-                            side: 1.0,
-                        },
-                        &frames[0],
-                        wo,
-                        &table,
-                        &opts,
-                    )
-                    .glossy[0]
-                        .a64;
-                    let f = |m: DMat3| {
-                        (m.x_axis.length_squared()
-                            + m.y_axis.length_squared()
-                            + m.z_axis.length_squared())
-                        .sqrt()
-                    };
-                    f(a) * f(a.inverse())
-                };
+                let kf = ltcguide::math::frobenius_condition(
+                    &ShadingLtc::new(&lobes, &frames[0], wo, &table, &opts).glossy[0].a64,
+                );
                 print!("{alpha:<6} {theta:>4} L{level} c{cond:<7.1} kF{kf:<7.1}|");
                 for (ri, (name, _)) in rules.iter().enumerate() {
                     let st = stats[ri];

@@ -97,6 +97,17 @@ pub fn safe_sqrt(x: f32) -> f32 {
     x.max(0.0).sqrt()
 }
 
+/// ‖M‖_F, the Frobenius norm: how much an LTC map magnifies directions at
+/// most (within √3), cheap and without eigenvalues.
+pub fn frobenius_norm(m: &glam::DMat3) -> f64 {
+    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+}
+
+/// κ_F = ‖A‖_F·‖A⁻¹‖_F, the Frobenius condition number of a map A.
+pub fn frobenius_condition(a: &glam::DMat3) -> f64 {
+    frobenius_norm(a) * frobenius_norm(&a.inverse())
+}
+
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton iteration on the
 /// Legendre recurrence, f64).
 pub fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {

@@ -169,13 +169,10 @@ pub fn plan(
         });
     }
     if product_weights {
-        reasons.push(match product_vertices {
-            0 => "product weights at every vertex".into(),
-            1 => "product weights at the first vertex of each path, radiance weights deeper".into(),
-            n => format!(
-                "product weights at the first {n} vertices of each path, radiance weights deeper"
-            ),
-        });
+        reasons.push(format!(
+            "product weights at {}",
+            crate::guiding::product::product_weights_scope(product_vertices)
+        ));
     }
     let form_factors = product
         && if cosine_product {

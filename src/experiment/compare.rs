@@ -265,13 +265,9 @@ fn summary_markdown(
                 rr += &format!(" (window s = {})", p.adrrs_window);
             }
             let cosine = if m == Method::Product {
-                let vertices = match opts.product_vertices {
-                    0 => "every vertex".to_string(),
-                    1 => "the first vertex".to_string(),
-                    n => format!("the first {n} vertices"),
-                };
                 format!(
-                    ", product at {vertices}, cosine lobes: {}",
+                    ", product weights at {}, cosine lobes: {}",
+                    crate::guiding::product::product_weights_scope(opts.product_vertices),
                     format!("{:?}", opts.cosine_lobes).to_lowercase()
                 )
             } else {

@@ -52,6 +52,16 @@ pub struct ProductModel<'t> {
 /// children by the BSDF as well as the radiance changes little.
 pub const DEFAULT_PRODUCT_VERTICES: u32 = 1;
 
+/// Where product weights apply for a `product_vertices` setting, for plan
+/// lines and reports.
+pub fn product_weights_scope(product_vertices: u32) -> String {
+    match product_vertices {
+        0 => "every vertex".into(),
+        1 => "the first vertex of each path, radiance weights deeper".into(),
+        n => format!("the first {n} vertices of each path, radiance weights deeper"),
+    }
+}
+
 /// The child weights at a vertex whose lobes are all cosines (diffuse
 /// surfaces, plastic without a glossy coat, GGX lobes rougher than
 /// `rough_as_diffuse_above`).
@@ -76,13 +86,12 @@ pub enum CosineLobes {
 }
 
 /// True when every lobe with weight is a cosine to the product (and some
-/// lobe has weight): diffuse, or GGX rougher than `rough_as_diffuse_above`
-/// (a non-finite α counts as 1, as in `ShadingLtc::new`).
-fn only_cosine_lobes(lobes: &crate::bsdf::Lobes, rough_as_diffuse_above: f32) -> bool {
+/// lobe has weight): diffuse, or GGX that `options` integrates as a cosine.
+fn only_cosine_lobes(lobes: &crate::bsdf::Lobes, options: &LtcOptions) -> bool {
     let ggx = lobes.ggx.iter().take(lobes.ggx_count);
     let mut weighted = ggx.filter(|g| g.weight > 0.0).peekable();
     let has_rough = weighted.peek().is_some();
-    let glossy = weighted.any(|g| g.alpha.is_finite() && g.alpha <= rough_as_diffuse_above);
+    let glossy = weighted.any(|g| !options.integrates_as_cosine(g.alpha));
     !glossy && (lobes.diffuse > 0.0 || has_rough)
 }
 
@@ -233,9 +242,7 @@ impl WeightModel for ProductModel<'_> {
             return radiance_weights();
         }
         let lobes = ctx.bsdf.lobes(ctx.wo_local);
-        if self.cosine_lobes == CosineLobes::Radiance
-            && only_cosine_lobes(&lobes, self.options.rough_as_diffuse_above)
-        {
+        if self.cosine_lobes == CosineLobes::Radiance && only_cosine_lobes(&lobes, &self.options) {
             return radiance_weights();
         }
         // Two-sided mirroring flips z only (the lobes' frame).

@@ -160,9 +160,7 @@ impl GlossyLtc {
     pub fn from_map(a: DMat3, weight: f32, opts: &LtcOptions) -> Self {
         let deep_cell_size = opts.deep_cell_size;
         let det = a.determinant();
-        let kappa =
-            (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
-                .sqrt();
+        let kappa = crate::math::frobenius_norm(&a);
         let deep_depth = super::fast_math::ceil_log2(
             2.0 * std::f64::consts::PI * kappa / deep_cell_size.max(1e-30) as f64,
         )
@@ -448,7 +446,7 @@ impl ShadingLtc {
             }
             let entry = table.lookup(alpha, cos_theta_o);
             let weight = w * entry.albedo.max(0.0);
-            if alpha > opts.rough_as_diffuse_above {
+            if opts.integrates_as_cosine(alpha) {
                 diffuse_weight += weight;
                 continue;
             }

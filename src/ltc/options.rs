@@ -73,6 +73,14 @@ pub const DEFAULT_DEEP_CELL_SIZE: f32 = 0.088;
 /// (f64): the sphere approximation is poor for such large polygons.
 pub const EXACT_CROSSING_DEPTH: u32 = 5;
 
+impl LtcOptions {
+    /// Whether a GGX lobe of roughness `alpha` is integrated as a cosine
+    /// (rougher than `rough_as_diffuse_above`; a non-finite α counts as 1).
+    pub fn integrates_as_cosine(&self, alpha: f32) -> bool {
+        !(alpha.is_finite() && alpha <= self.rough_as_diffuse_above)
+    }
+}
+
 impl Default for LtcOptions {
     fn default() -> Self {
         LtcOptions {

@@ -52,10 +52,7 @@ pub const LAST_DEPTH: u32 = 5;
 /// Nodes per segment at each child depth [`FIRST_DEPTH`]..=[`LAST_DEPTH`]
 /// for a map A (0: chords), from κ_F = ‖A‖_F·‖A⁻¹‖_F.
 pub fn node_counts(a: &glam::DMat3) -> [u8; 4] {
-    let frob = |m: glam::DMat3| {
-        (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
-    };
-    let kappa = frob(*a) * frob(a.inverse());
+    let kappa = crate::math::frobenius_condition(a);
     std::array::from_fn(|i| {
         let span = 1.0 / (1u64 << (FIRST_DEPTH as usize + i)) as f64;
         NODE_COUNTS
