@@ -8,7 +8,7 @@ use ltcguide::bsdf::{GgxLobe, Lobes};
 use ltcguide::directional::{SQUARE_TO_SOLID_ANGLE_PDF, dir_to_square};
 use ltcguide::guiding::build::QuadTreeBuilder;
 use ltcguide::guiding::descent::{RadianceWeights, pdf, root_total, sample, sample_direction};
-use ltcguide::guiding::product::{ChildMemo, ProductWeights, guiding_ltc_options};
+use ltcguide::guiding::product::{ProductLobe, ProductWeights, guiding_ltc_options};
 use ltcguide::guiding::quadtree::QuadTree;
 use ltcguide::ltc::{LtcTable, ProductKernel, ShadingLtc};
 use ltcguide::math::Frame;
@@ -147,23 +147,28 @@ fn bench_product(c: &mut Criterion) {
     let table = LtcTable::load_default().expect("data/ltc table");
     let opts = guiding_ltc_options();
     let points = shading_points(256);
-    let weights = |p: &ShadingPoint| ProductWeights::Product {
-        ltc: ShadingLtc::new(&p.lobes, &p.frame, p.wo, &table, &opts),
-        kernel: ProductKernel::Simd,
-        memo: ChildMemo::default(),
+    let lobe = |p: &ShadingPoint| {
+        ProductLobe::new(
+            ShadingLtc::new(&p.lobes, &p.frame, p.wo, &table, &opts),
+            ProductKernel::Simd,
+        )
     };
     let mut rng = Rng::new(8, 1);
     let us: Vec<Vec2> = (0..points.len()).map(|_| rng.next_2d()).collect();
     let sampled: Vec<Vec2> = points
         .iter()
         .zip(&us)
-        .map(|(p, &u)| sample(&tree, &mut weights(p), u).map_or(u, |s| s.0))
+        .map(|(p, &u)| {
+            let mut lobe = lobe(p);
+            sample(&tree, &mut ProductWeights::Product(&mut lobe), u).map_or(u, |s| s.0)
+        })
         .collect();
     let mut i = 0usize;
     c.bench_function("guiding/product_sample", |b| {
         b.iter(|| {
             i = (i + 1) & 255;
-            let mut w = weights(black_box(&points[i]));
+            let mut lobe = lobe(black_box(&points[i]));
+            let mut w = ProductWeights::Product(&mut lobe);
             let _ = black_box(root_total(&tree, &mut w));
             black_box(sample(black_box(&tree), &mut w, black_box(us[i])))
         })
@@ -172,7 +177,8 @@ fn bench_product(c: &mut Criterion) {
     c.bench_function("guiding/product_pdf", |b| {
         b.iter(|| {
             j = (j + 1) & 255;
-            let mut w = weights(black_box(&points[j]));
+            let mut lobe = lobe(black_box(&points[j]));
+            let mut w = ProductWeights::Product(&mut lobe);
             let _ = black_box(root_total(&tree, &mut w));
             black_box(pdf(black_box(&tree), &mut w, black_box(sampled[j])))
         })

@@ -81,6 +81,7 @@ fn main() {
                 &mut counters,
                 &mut scratch,
                 &mut rec,
+                &mut (),
                 0.0,
             );
             li[c] += luminance(l) as f64 * w.dot(n) as f64 / per as f64;

@@ -141,14 +141,15 @@ pub fn lobe_inventory(scene: &Scene) -> LobeInventory {
     inv
 }
 
-/// The plan of a run; `cosine_lobes` and `product_vertices` are product
-/// guiding's settings (see `guiding::product`).
+/// The plan of a run; `cosine_lobes`, `product_vertices` and `pixel_reuse`
+/// are product guiding's settings (see `guiding::product`).
 pub fn plan(
     scene: &Scene,
     requested: Method,
     nee: bool,
     cosine_lobes: CosineLobes,
     product_vertices: u32,
+    pixel_reuse: bool,
 ) -> ScenePlan {
     let inv = lobe_inventory(scene);
     let mut reasons = Vec::new();
@@ -171,7 +172,7 @@ pub fn plan(
     if product_weights {
         reasons.push(format!(
             "product weights at {}",
-            crate::guiding::product::product_weights_scope(product_vertices)
+            crate::guiding::product::product_weights_scope(product_vertices, pixel_reuse)
         ));
     }
     let form_factors = product

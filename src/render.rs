@@ -105,6 +105,11 @@ impl SnapshotPlan {
         }
     }
 
+    /// The next snapshot's time, if any is left.
+    pub fn next_time(&self) -> Option<f64> {
+        self.times.get(self.next).copied()
+    }
+
     /// True when the clock has passed the next snapshot time.
     pub fn due(&self, seconds: f64) -> bool {
         self.next < self.times.len() && seconds >= self.times[self.next]
@@ -121,6 +126,43 @@ impl SnapshotPlan {
             image,
         });
     }
+}
+
+/// Most passes one pixel-major call renders (so the progress bar moves).
+const MAX_PASSES_PER_CALL: u64 = 16;
+
+/// How many passes the next call of `render_passes_into` renders.
+///
+/// A call traces each pixel's paths one after the other: their first hits
+/// stay in cache, and product guiding reuses a pixel's first product lobe
+/// (`guiding::pixel_reuse`). But the clock is read only between calls, so:
+/// - a sample budget renders what is left of it (`passes_left`);
+/// - a deadline or a snapshot `seconds_left` away takes about half of
+///   that time, judged by the last call's `seconds_per_pass`, so the calls
+///   shrink towards it and a run overshoots by about one pass, as one pass
+///   per call did; before any call has been timed, one pass.
+pub fn passes_per_call(
+    passes_left: Option<u64>,
+    seconds_left: Option<f64>,
+    seconds_per_pass: Option<f64>,
+) -> u64 {
+    let mut n = MAX_PASSES_PER_CALL;
+    if let Some(p) = passes_left {
+        n = n.min(p);
+    }
+    if let Some(t) = seconds_left {
+        n = match seconds_per_pass {
+            Some(s) if s > 0.0 && t.is_finite() => n.min((0.5 * t / s).max(0.0) as u64),
+            _ => 1,
+        };
+    }
+    n.max(1)
+}
+
+/// Seconds until the deadline or the next snapshot, whichever comes first.
+pub fn seconds_left(now: f64, deadline: Option<f64>, snapshots: &SnapshotPlan) -> Option<f64> {
+    let next = [deadline, snapshots.next_time()].into_iter().flatten();
+    next.map(|t| t - now).reduce(f64::min)
 }
 
 #[derive(Clone, Debug)]
@@ -143,6 +185,10 @@ pub struct RenderOptions {
     /// Product guiding: the first this many vertices of a path take product
     /// weights (0: every vertex).
     pub product_vertices: u32,
+    /// Product guiding: a pixel's paths reuse their first vertex's product
+    /// lobe while it matches (`guiding::pixel_reuse`); off: the paper's
+    /// lobe per vertex.
+    pub pixel_reuse: bool,
     /// Follow the per-scene plan (and drop guiding where it does not pay).
     /// Off only for measuring what the plan saves.
     pub use_plan: bool,
@@ -171,6 +217,7 @@ impl Default for RenderOptions {
             product_kernel: ProductKernel::default(),
             cosine_lobes: CosineLobes::default(),
             product_vertices: crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
+            pixel_reuse: true,
             use_plan: true,
             spatial_threshold: None,
         }
@@ -287,6 +334,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         opts.path.nee,
         opts.cosine_lobes,
         opts.product_vertices,
+        opts.pixel_reuse,
     );
     if !opts.use_plan {
         plan.method = opts.method;
@@ -353,6 +401,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                         radiance_only: false,
                         cosine_lobes: opts.cosine_lobes,
                         product_vertices: opts.product_vertices,
+                        reuse_in_pixel: opts.pixel_reuse,
                     };
                     guided(render_guided(
                         scene,
@@ -435,20 +484,23 @@ fn render_unguided(
         Budget::Seconds(s) => Some(s),
     };
     let mut pass = 0u64;
+    let mut seconds_per_pass = None;
     loop {
         match (opts.budget, deadline) {
             (Budget::Spp(n), _) if pass >= n as u64 => break,
             (_, Some(s)) if clock.seconds() >= s && pass > 0 => break,
             _ => {}
         }
-        // A sample budget without snapshots renders several passes per
-        // call (pixel-major, see `render_passes_into`); a time budget or
-        // snapshots check the clock after every pass. Capped so that the
-        // progress bar still moves.
-        let n = match opts.budget {
-            Budget::Spp(n) if snapshots.times.is_empty() => (n as u64 - pass).min(16),
-            _ => 1,
+        let start = clock.seconds();
+        let passes_left = match opts.budget {
+            Budget::Spp(n) => Some(n as u64 - pass),
+            Budget::Seconds(_) => None,
         };
+        let n = passes_per_call(
+            passes_left,
+            seconds_left(start, deadline, snapshots),
+            seconds_per_pass,
+        );
         let (c, _) = render_passes_into(
             scene,
             &NoGuide,
@@ -461,6 +513,7 @@ fn render_unguided(
         counters.add(&c);
         pass += n;
         let now = clock.seconds();
+        seconds_per_pass = Some((now - start) / n as f64);
         if snapshots.due(now) {
             clock.excluding(|| snapshots.take(now, film.spp, film.image()));
         }

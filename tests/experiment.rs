@@ -59,6 +59,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         guided_roulette: Some((RouletteMode::Off, 5.0)),
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,
+        pixel_reuse: true,
         progress: false,
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -135,6 +136,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
         guided_roulette: None,
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,
+        pixel_reuse: true,
         progress: false,
     };
     let wrong = Image {
@@ -196,6 +198,7 @@ fn compare_nee_choice_reaches_every_method() {
             guided_roulette: None,
             cosine_lobes: CosineLobes::Radiance,
             product_vertices: 1,
+            pixel_reuse: true,
             progress: false,
         };
         let outcome = run_compare(&scene, &reference, &opts).unwrap();

@@ -194,6 +194,7 @@ fn record_at(p: Vec3, d: Vec3, value: f32, seed: u64) -> Record {
         throughput_pdf: 0.2,
         guided: true,
         seed,
+        pass: 0,
     }
 }
 
@@ -413,6 +414,7 @@ fn sdtree_learns_a_space_varying_field_end_to_end() {
                 throughput_pdf: p_mix,
                 guided,
                 seed,
+                pass: 0,
             });
         }
         let stats = record_pass(&mut tree, &buffers);
@@ -447,4 +449,74 @@ fn sdtree_learns_a_space_varying_field_end_to_end() {
             tree.bsdf_fraction(id)
         );
     }
+}
+
+/// A render call traces a pixel's passes one after the other, so its
+/// buffers hold the records pixel-major; Adam must still step through them
+/// pass by pass. The same records, buffered pass-major (one pass per call)
+/// or pixel-major (all passes in one call), teach every leaf the same θ to
+/// the bit, and a different order does change it (the test can fail).
+#[test]
+fn adam_steps_pass_by_pass_whatever_the_buffer_order() {
+    let mut rng = Rng::new(5, 3);
+    const PIXELS: usize = 300;
+    const PASSES: u64 = 4;
+    let record = |rng: &mut Rng, pass: u64, seed: u64| {
+        let mut r = record_at(
+            Vec3::new(0.2 + 0.6 * rng.next_f32(), 0.5, 0.5),
+            square_to_uniform_sphere(rng.next_2d()),
+            1.0,
+            seed,
+        );
+        r.pass = pass;
+        r.product = 0.1 + rng.next_f32();
+        r.bsdf_pdf = 0.05 + rng.next_f32();
+        r.guide_pdf = 0.05 + rng.next_f32();
+        r
+    };
+    // records[pass][pixel]
+    let records: Vec<Vec<Record>> = (0..PASSES)
+        .map(|pass| {
+            (0..PIXELS)
+                .map(|px| record(&mut rng, pass, pass * 1000 + px as u64))
+                .collect()
+        })
+        .collect();
+    let learn = |buffers: Vec<RecordBuffer>| {
+        let mut tree = SdTree::new(Vec3::ZERO, Vec3::ONE, SdTreeConfig::default());
+        for b in buffers.chunks(1) {
+            record_pass(&mut tree, b);
+        }
+        tree.leaves()
+            .iter()
+            .map(|l| l.fraction.theta().to_bits())
+            .collect::<Vec<_>>()
+    };
+    // One call per pass: a buffer per pass.
+    let pass_major: Vec<RecordBuffer> = records
+        .iter()
+        .map(|pass| {
+            let mut b = RecordBuffer::default();
+            pass.iter().for_each(|r| b.push(*r));
+            b
+        })
+        .collect();
+    // One call: a single buffer, pixel by pixel.
+    let mut pixel_major = RecordBuffer::default();
+    for px in 0..PIXELS {
+        for pass in &records {
+            pixel_major.push(pass[px]);
+        }
+    }
+    let mut reversed = RecordBuffer::default();
+    for pass in records.iter().rev() {
+        pass.iter().for_each(|r| reversed.push(*r));
+    }
+    let reference = learn(pass_major);
+    assert_eq!(reference, learn(vec![pixel_major]));
+    let mut shuffled = reversed;
+    for r in &mut shuffled.records {
+        r.pass = 0;
+    }
+    assert_ne!(reference, learn(vec![shuffled]));
 }

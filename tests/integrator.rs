@@ -55,6 +55,7 @@ fn sphere_light_direct_lighting_matches_closed_form_with_and_without_nee() {
                     &mut counters,
                     &mut scratch,
                     &mut (),
+                    &mut (),
                     0.0,
                 )
                 .y as f64;

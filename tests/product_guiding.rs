@@ -9,7 +9,7 @@ use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
 use ltcguide::directional::{dir_to_square, square_to_dir};
 use ltcguide::guiding::descent::{self, ChildWeights};
 use ltcguide::guiding::guide::WeightModel;
-use ltcguide::guiding::product::{CosineLobes, ProductModel, ProductWeights};
+use ltcguide::guiding::product::{CosineLobes, ProductCache, ProductModel, ProductWeights};
 use ltcguide::guiding::quadtree::{QuadNode, QuadTree};
 use ltcguide::integrator::guide::VertexContext;
 use ltcguide::ltc::{LtcOptions, ProductKernel};
@@ -108,7 +108,12 @@ struct Case {
     normal: Vec3,
 }
 
-fn weights_for(case: &Case, model: &ProductModel, rng: &mut Rng) -> Option<ProductWeights> {
+fn weights_for<'c>(
+    case: &Case,
+    model: &'c ProductModel,
+    rng: &mut Rng,
+    cache: &'c mut ProductCache,
+) -> Option<ProductWeights<'c>> {
     let frame = Frame::from_normal(case.normal);
     let t = case.theta_o_deg.to_radians();
     let phi = 6.2831853 * rng.next_f32();
@@ -123,7 +128,7 @@ fn weights_for(case: &Case, model: &ProductModel, rng: &mut Rng) -> Option<Produ
         needs_adjoint: false,
         vertex_index: 0,
     };
-    model.weights(&ctx)
+    model.weights(&ctx, cache)
 }
 
 fn cases(rng: &mut Rng) -> Vec<Case> {
@@ -185,12 +190,14 @@ fn product_sampling_matches_its_pdf_chi2() {
             radiance_only: false,
             cosine_lobes: CosineLobes::Product,
             product_vertices: 0,
+            reuse_in_pixel: false,
         };
         // The f64 naive kernel is slow; a third of the cases suffice for it.
         let stride = if kernel == ProductKernel::Naive { 3 } else { 1 };
         for (ci, case) in cases.iter().enumerate().step_by(stride) {
             let tree = random_tree(&mut rng, 200);
-            let Some(mut w) = weights_for(case, &model, &mut rng) else {
+            let mut cache = ProductCache::default();
+            let Some(mut w) = weights_for(case, &model, &mut rng, &mut cache) else {
                 panic!("case {ci}: the product vanished for a reflective BSDF");
             };
             let mut srng = Rng::new(ci as u64, 99);
@@ -229,6 +236,7 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
         radiance_only: false,
         cosine_lobes: CosineLobes::Product,
         product_vertices: 0,
+        reuse_in_pixel: false,
     };
     let mut rng = Rng::new(77, 1);
     let tree = random_tree(&mut rng, 200);
@@ -238,7 +246,8 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
         theta_o_deg: 30.0,
         normal: Vec3::new(0.2, -0.3, 0.93).normalize(),
     };
-    let mut w = weights_for(&case, &model, &mut rng).unwrap();
+    let mut cache = ProductCache::default();
+    let mut w = weights_for(&case, &model, &mut rng, &mut cache).unwrap();
     let cfg = Chi2Config {
         res_x: 16,
         res_y: 32,
@@ -281,11 +290,13 @@ fn pdf_of_a_sampled_direction_is_the_returned_pdf() {
         radiance_only: false,
         cosine_lobes: CosineLobes::Product,
         product_vertices: 0,
+        reuse_in_pixel: false,
     };
     let mut rng = Rng::new(5, 5);
     for case in cases(&mut rng.clone()) {
         let tree = random_tree(&mut rng, 300);
-        let mut w = weights_for(&case, &model, &mut rng).unwrap();
+        let mut cache = ProductCache::default();
+        let mut w = weights_for(&case, &model, &mut rng, &mut cache).unwrap();
         for _ in 0..2000 {
             let (p, pdf) = descent::sample(&tree, &mut w, rng.next_2d()).unwrap();
             assert_eq!(descent::pdf(&tree, &mut w, p), pdf);
@@ -311,6 +322,7 @@ fn product_weights_concentrate_where_the_bsdf_is() {
         radiance_only: false,
         cosine_lobes: CosineLobes::Product,
         product_vertices: 0,
+        reuse_in_pixel: false,
     };
     let tree = QuadTree::uniform(1.0);
     let case = Case {
@@ -320,7 +332,8 @@ fn product_weights_concentrate_where_the_bsdf_is() {
         normal: Vec3::Z,
     };
     let mut rng = Rng::new(1, 2);
-    let mut w = weights_for(&case, &model, &mut rng).unwrap();
+    let mut cache = ProductCache::default();
+    let mut w = weights_for(&case, &model, &mut rng, &mut cache).unwrap();
     let mut cos_to_normal = 0.0;
     for _ in 0..1000 {
         let (p, _) = descent::sample(&tree, &mut w, rng.next_2d()).unwrap();
@@ -352,6 +365,7 @@ fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
         radiance_only: false,
         cosine_lobes,
         product_vertices: 0,
+        reuse_in_pixel: false,
     };
     let mut rng = Rng::new(11, 4);
     let tree = random_tree(&mut rng, 200);
@@ -361,11 +375,15 @@ fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
         theta_o_deg: 30.0,
         normal: Vec3::new(0.1, 0.2, 0.97).normalize(),
     };
+    let (cosine_as_radiance, cosine_product) =
+        (model(CosineLobes::Radiance), model(CosineLobes::Product));
+    let mut cache = ProductCache::default();
     for (alpha, diffuse) in [(1.0, false), (1.0, true), (0.6, true)] {
         let mut w = weights_for(
             &case(alpha, diffuse),
-            &model(CosineLobes::Radiance),
+            &cosine_as_radiance,
             &mut rng,
+            &mut cache,
         )
         .expect("a reflective BSDF");
         assert!(
@@ -382,24 +400,21 @@ fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
                 descent::pdf(&tree, &mut descent::RadianceWeights, p).to_bits()
             );
         }
-        let paper = weights_for(
-            &case(alpha, diffuse),
-            &model(CosineLobes::Product),
-            &mut rng,
-        );
+        let paper = weights_for(&case(alpha, diffuse), &cosine_product, &mut rng, &mut cache);
         assert!(
-            matches!(paper, Some(ProductWeights::Product { .. })),
+            matches!(paper, Some(ProductWeights::Product(_))),
             "α {alpha}, diffuse {diffuse}: the paper's cosine product"
         );
     }
     for diffuse in [false, true] {
         let glossy = weights_for(
             &case(0.05, diffuse),
-            &model(CosineLobes::Radiance),
+            &cosine_as_radiance,
             &mut rng,
+            &mut cache,
         );
         assert!(
-            matches!(glossy, Some(ProductWeights::Product { .. })),
+            matches!(glossy, Some(ProductWeights::Product(_))),
             "a glossy lobe (diffuse base: {diffuse}) keeps the product"
         );
     }
@@ -470,6 +485,7 @@ fn only_the_first_vertices_take_product_weights() {
             radiance_only: false,
             cosine_lobes: CosineLobes::Radiance,
             product_vertices,
+            reuse_in_pixel: false,
         };
         let ctx = VertexContext {
             p: Vec3::ZERO,
@@ -480,9 +496,10 @@ fn only_the_first_vertices_take_product_weights() {
             needs_adjoint: false,
             vertex_index: index,
         };
-        let w = model.weights(&ctx);
+        let mut cache = ProductCache::default();
+        let w = model.weights(&ctx, &mut cache);
         assert_eq!(
-            matches!(w, Some(ProductWeights::Product { .. })),
+            matches!(w, Some(ProductWeights::Product(_))),
             product,
             "product at the first {product_vertices} vertices, vertex {index}"
         );

@@ -65,6 +65,8 @@ pub fn run_ablation(
             } else {
                 crate::guiding::product::DEFAULT_PRODUCT_VERTICES
             },
+            // ... and its own lobe at every vertex.
+            pixel_reuse: !paper,
             use_plan,
             ..Default::default()
         };
@@ -113,6 +115,7 @@ pub fn run_ablation(
         path.nee,
         CosineLobes::Radiance,
         crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
+        true,
     )
     .line();
     let naive = kernels[0].seconds.max(1e-9);

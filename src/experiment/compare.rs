@@ -36,6 +36,8 @@ pub struct CompareOptions {
     pub cosine_lobes: CosineLobes,
     /// Product guiding's vertices per path with product weights (0: all).
     pub product_vertices: u32,
+    /// Product guiding's reuse of a pixel's first lobe.
+    pub pixel_reuse: bool,
     pub progress: bool,
 }
 
@@ -131,6 +133,7 @@ pub fn run_compare(
                 snapshot_times: snapshot_times(opts.seconds),
                 cosine_lobes: opts.cosine_lobes,
                 product_vertices: opts.product_vertices,
+                pixel_reuse: opts.pixel_reuse,
                 ..Default::default()
             };
             let result = render(scene, &ropts)?;
@@ -267,7 +270,10 @@ fn summary_markdown(
             let cosine = if m == Method::Product {
                 format!(
                     ", product weights at {}, cosine lobes: {}",
-                    crate::guiding::product::product_weights_scope(opts.product_vertices),
+                    crate::guiding::product::product_weights_scope(
+                        opts.product_vertices,
+                        opts.pixel_reuse
+                    ),
                     format!("{:?}", opts.cosine_lobes).to_lowercase()
                 )
             } else {

@@ -7,7 +7,7 @@ use super::descent::{self, ChildWeights, RadianceWeights};
 use super::quadtree::QuadTree;
 use super::record::{Record, RecordBuffer};
 use super::sdtree::SdTree;
-use crate::integrator::guide::{Guide, GuideVertex, PathVertex, VertexContext};
+use crate::integrator::guide::{Guide, GuideVertex, PathVertex, VertexCache, VertexContext};
 use crate::math::{Frame, luminance};
 use glam::{Vec2, Vec3};
 
@@ -16,10 +16,16 @@ pub trait WeightModel: Sync {
     type Weights<'a>: ChildWeights
     where
         Self: 'a;
+    /// Per-worker memory for the weights of a pixel's paths.
+    type Cache: VertexCache;
 
     /// The weights at a vertex; `None` means the guide cannot help here
     /// (e.g. the product vanishes everywhere): sample the BSDF.
-    fn weights<'a>(&'a self, ctx: &VertexContext) -> Option<Self::Weights<'a>>;
+    fn weights<'a>(
+        &'a self,
+        ctx: &VertexContext,
+        cache: &'a mut Self::Cache,
+    ) -> Option<Self::Weights<'a>>;
 
     /// The reflected radiance towards ω_o (the adjoint ADRRS needs), given
     /// the descent's root normaliser Σ_k w_k and the root cells' stored
@@ -52,8 +58,9 @@ pub struct RadianceModel;
 
 impl WeightModel for RadianceModel {
     type Weights<'a> = RadianceWeights;
+    type Cache = ();
 
-    fn weights<'a>(&'a self, _ctx: &VertexContext) -> Option<RadianceWeights> {
+    fn weights<'a>(&'a self, _ctx: &VertexContext, _cache: &'a mut ()) -> Option<RadianceWeights> {
         Some(RadianceWeights)
     }
 
@@ -97,8 +104,6 @@ pub struct SdGuide<'t, M: WeightModel> {
     pub tree: &'t SdTree,
     pub model: &'t M,
     pub learning: bool,
-    /// Salt for the records' jitter seeds (e.g. the pass index).
-    pub pass: u64,
     /// A fixed BSDF fraction instead of the learned one.
     pub fixed_alpha: Option<f32>,
 }
@@ -134,14 +139,19 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
     where
         Self: 'a;
     type Recorder = RecordBuffer;
+    type Cache = M::Cache;
 
-    fn vertex<'a>(&'a self, ctx: &VertexContext) -> Option<Self::Vertex<'a>> {
+    fn vertex<'a>(
+        &'a self,
+        ctx: &VertexContext,
+        cache: &'a mut M::Cache,
+    ) -> Option<Self::Vertex<'a>> {
         let id = self.tree.lookup(ctx.p);
         let leaf = self.tree.leaf(id);
         if leaf.sampling.node_count() == 0 {
             return None;
         }
-        let mut weights = self.model.weights(ctx)?;
+        let mut weights = self.model.weights(ctx, cache)?;
         // The root normaliser: with product weights, Σ L_k·D_k estimates the
         // reflected radiance (the adjoint); with radiance weights, the
         // incident radiance integral.
@@ -173,7 +183,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         self.learning
     }
 
-    fn record(&self, recorder: &mut RecordBuffer, vertices: &[PathVertex]) {
+    fn record(&self, recorder: &mut RecordBuffer, vertices: &[PathVertex], pass: u64) {
         for v in vertices.iter().filter(|v| v.guided) {
             let p_mix = v.pdf_mix;
             let incident = luminance(v.radiance);
@@ -187,7 +197,8 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
                 alpha: v.bsdf_fraction,
                 throughput_pdf: v.throughput_pdf,
                 guided: v.guide_used,
-                seed: record_seed(self.pass, v),
+                seed: record_seed(pass, v),
+                pass,
             });
         }
     }

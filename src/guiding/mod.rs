@@ -41,6 +41,7 @@ pub mod aov;
 pub mod build;
 pub mod descent;
 pub mod guide;
+pub mod pixel_reuse;
 pub mod product;
 pub mod quadtree;
 pub mod record;

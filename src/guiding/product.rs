@@ -13,6 +13,7 @@
 
 use super::descent::ChildWeights;
 use super::guide::{WeightModel, reflected_radiance_estimate};
+pub use super::pixel_reuse::{LobeKey, ProductCache};
 use crate::directional::Cell;
 use crate::integrator::guide::VertexContext;
 use crate::ltc::{LtcOptions, LtcTable, ProductKernel, ShadingLtc};
@@ -31,6 +32,10 @@ pub struct ProductModel<'t> {
     /// ones radiance weights; 0: every vertex (the paper's setting). See
     /// [`DEFAULT_PRODUCT_VERTICES`].
     pub product_vertices: u32,
+    /// A pixel's paths reuse the product lobe of their first vertex while
+    /// they hit the same lobe (see [`ProductCache`]); off: every vertex
+    /// computes its own (the paper's setting).
+    pub reuse_in_pixel: bool,
 }
 
 /// Product weights at the first vertex of each path only, by default.
@@ -52,14 +57,21 @@ pub struct ProductModel<'t> {
 /// children by the BSDF as well as the radiance changes little.
 pub const DEFAULT_PRODUCT_VERTICES: u32 = 1;
 
-/// Where product weights apply for a `product_vertices` setting, for plan
-/// lines and reports.
-pub fn product_weights_scope(product_vertices: u32) -> String {
-    match product_vertices {
+/// Where product weights apply for a `product_vertices` setting, and
+/// whether a pixel's paths reuse their first product lobe, for plan lines
+/// and reports.
+pub fn product_weights_scope(product_vertices: u32, pixel_reuse: bool) -> String {
+    let scope = match product_vertices {
         0 => "every vertex".into(),
         1 => "the first vertex of each path, radiance weights deeper".into(),
         n => format!("the first {n} vertices of each path, radiance weights deeper"),
-    }
+    };
+    let reuse = if pixel_reuse {
+        "the first vertex's lobe reused across a pixel's paths"
+    } else {
+        "no lobe reuse across paths"
+    };
+    format!("{scope}; {reuse}")
 }
 
 /// The child weights at a vertex whose lobes are all cosines (diffuse
@@ -139,29 +151,31 @@ pub fn guiding_ltc_options() -> LtcOptions {
     }
 }
 
-/// Depths below this get one memo slot each (deeper nodes are recomputed).
-/// Product descents rarely pass depth 10 (staircase: 1 node in 2·10⁷
-/// below it), and the memo is moved with every vertex's weights.
-const MEMO_DEPTHS: usize = 12;
+/// Slots of the child-integral memo (a power of two).
+const MEMO_SLOTS: usize = 256;
 
-/// Per-vertex memo of child integrals, one slot per depth: `root_total`, the
-/// sample descent and the pdf descents at one vertex all start at the root
-/// and usually share their top levels, and a descent visits one node per
-/// depth, so a slot per depth holds exactly the shared prefix. The value is
-/// the same pure function of the cell whether it is computed or recalled, so
-/// sample and pdf stay bit-identical.
+/// Memo of the child integrals of one product lobe, direct-mapped by cell.
+///
+/// At one vertex, `root_total`, the sample descent and the pdf descents
+/// all start at the root and share their top levels; with the lobe reused
+/// across a pixel's paths (`guiding::pixel_reuse`), every descent of the
+/// pixel shares them too. A slot per depth (before) held one descent's
+/// prefix, so each path of a pixel recomputed what the previous one had
+/// evicted; 256 slots hold the union of a pixel's descents. A value is the
+/// same pure function of the cell whether computed or recalled, so sample
+/// and pdf stay bit-identical, and a collision only costs a recomputation.
 #[derive(Clone, Debug)]
 pub struct ChildMemo {
-    /// (ix, iy) of the cell in each depth's slot; `u32::MAX` when empty.
-    keys: [(u32, u32); MEMO_DEPTHS],
-    values: [[f32; 4]; MEMO_DEPTHS],
+    /// Packed (depth, ix, iy) of the cell in each slot; `u64::MAX` when empty.
+    keys: [u64; MEMO_SLOTS],
+    values: [[f32; 4]; MEMO_SLOTS],
 }
 
 impl Default for ChildMemo {
     fn default() -> Self {
         ChildMemo {
-            keys: [(u32::MAX, u32::MAX); MEMO_DEPTHS],
-            values: [[0.0; 4]; MEMO_DEPTHS],
+            keys: [u64::MAX; MEMO_SLOTS],
+            values: [[0.0; 4]; MEMO_SLOTS],
         }
     }
 }
@@ -170,37 +184,56 @@ impl ChildMemo {
     /// D of `cell`'s children, from the memo or computed by `f`.
     #[inline]
     pub fn get_or(&mut self, cell: Cell, f: impl FnOnce() -> [f32; 4]) -> [f32; 4] {
-        let d = cell.depth as usize;
-        if d >= MEMO_DEPTHS {
-            return f();
-        }
-        if self.keys[d] == (cell.ix, cell.iy) {
-            return self.values[d];
+        // depth < 32 and ix, iy < 2^depth: the fields cannot overlap.
+        let key = ((cell.depth as u64) << 58) | ((cell.ix as u64) << 29) | cell.iy as u64;
+        let slot = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 56) as usize % MEMO_SLOTS;
+        if self.keys[slot] == key {
+            return self.values[slot];
         }
         let v = f();
-        self.keys[d] = (cell.ix, cell.iy);
-        self.values[d] = v;
+        self.keys[slot] = key;
+        self.values[slot] = v;
         v
+    }
+
+    /// Forgets every cell (for a new lobe in the same storage).
+    pub fn clear(&mut self) {
+        self.keys.fill(u64::MAX);
+    }
+}
+
+/// A shading point's product lobe: its LTC mixture, the kernel that
+/// integrates it and the memo of the child integrals computed so far. It
+/// lives in the worker's [`ProductCache`] and the vertex borrows it, so it
+/// is never moved, and a pixel's next paths can reuse it.
+pub struct ProductLobe {
+    pub ltc: ShadingLtc,
+    pub kernel: ProductKernel,
+    pub memo: ChildMemo,
+}
+
+impl ProductLobe {
+    pub fn new(ltc: ShadingLtc, kernel: ProductKernel) -> Self {
+        ProductLobe {
+            ltc,
+            kernel,
+            memo: ChildMemo::default(),
+        }
     }
 }
 
 /// Per-vertex weights: the product, or the radiance fallback.
-pub enum ProductWeights {
-    Product {
-        ltc: ShadingLtc,
-        kernel: ProductKernel,
-        memo: ChildMemo,
-    },
-    RadianceOnly {
-        albedo: f32,
-    },
+pub enum ProductWeights<'a> {
+    Product(&'a mut ProductLobe),
+    RadianceOnly { albedo: f32 },
 }
 
-impl ChildWeights for ProductWeights {
+impl ChildWeights for ProductWeights<'_> {
     #[inline]
     fn child_weights(&mut self, cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
         match self {
-            ProductWeights::Product { ltc, kernel, memo } => {
+            ProductWeights::Product(lobe) => {
+                let ProductLobe { ltc, kernel, memo } = &mut **lobe;
                 let d = memo.get_or(cell, || ltc.child_integrals(cell, *kernel));
                 [
                     radiance[0] * d[0],
@@ -217,7 +250,7 @@ impl ChildWeights for ProductWeights {
     /// cosine lobe is smooth at every leaf size the tree produces.
     fn refine_below_leaves_to(&self) -> u32 {
         match self {
-            ProductWeights::Product { ltc, .. } if ltc.glossy_count > 0 => {
+            ProductWeights::Product(lobe) if lobe.ltc.glossy_count > 0 => {
                 crate::guiding::quadtree::MAX_DEPTH
             }
             _ => 0,
@@ -225,13 +258,62 @@ impl ChildWeights for ProductWeights {
     }
 }
 
+/// What the product model built at a shading point.
+pub enum BuiltWeights {
+    /// The product vanishes everywhere: sample the BSDF.
+    Vanishes,
+    RadianceOnly {
+        albedo: f32,
+    },
+    Product(ProductLobe),
+}
+
+impl BuiltWeights {
+    pub fn weights(&mut self) -> Option<ProductWeights<'_>> {
+        match self {
+            BuiltWeights::Vanishes => None,
+            BuiltWeights::RadianceOnly { albedo } => {
+                Some(ProductWeights::RadianceOnly { albedo: *albedo })
+            }
+            BuiltWeights::Product(lobe) => Some(ProductWeights::Product(lobe)),
+        }
+    }
+}
+
+impl ProductModel<'_> {
+    fn build(&self, lobes: &crate::bsdf::Lobes, ctx: &VertexContext) -> BuiltWeights {
+        // Two-sided mirroring flips z only (the lobes' frame).
+        let w = ctx.wo_local;
+        let wo = if lobes.side < 0.0 {
+            glam::Vec3::new(w.x, w.y, -w.z)
+        } else {
+            w
+        };
+        let ltc = ShadingLtc::new(lobes, ctx.frame, wo, self.table, &self.options);
+        if !(ltc.total() > 0.0) {
+            BuiltWeights::Vanishes
+        } else if ltc.prefers_radiance_only() {
+            BuiltWeights::RadianceOnly {
+                albedo: ltc.total(),
+            }
+        } else {
+            BuiltWeights::Product(ProductLobe::new(ltc, self.kernel))
+        }
+    }
+}
+
 impl WeightModel for ProductModel<'_> {
     type Weights<'a>
-        = ProductWeights
+        = ProductWeights<'a>
     where
         Self: 'a;
+    type Cache = ProductCache;
 
-    fn weights<'a>(&'a self, ctx: &VertexContext) -> Option<ProductWeights> {
+    fn weights<'a>(
+        &'a self,
+        ctx: &VertexContext,
+        cache: &'a mut ProductCache,
+    ) -> Option<ProductWeights<'a>> {
         let radiance_weights = || {
             Some(ProductWeights::RadianceOnly {
                 albedo: ctx.bsdf.albedo_estimate(ctx.wo_local),
@@ -245,28 +327,14 @@ impl WeightModel for ProductModel<'_> {
         if self.cosine_lobes == CosineLobes::Radiance && only_cosine_lobes(&lobes, &self.options) {
             return radiance_weights();
         }
-        // Two-sided mirroring flips z only (the lobes' frame).
-        let w = ctx.wo_local;
-        let wo = if lobes.side < 0.0 {
-            glam::Vec3::new(w.x, w.y, -w.z)
+        if self.reuse_in_pixel && ctx.vertex_index == 0 {
+            let key = LobeKey::new(lobes, ctx);
+            cache
+                .first_vertex(key, || self.build(&lobes, ctx))
+                .weights()
         } else {
-            w
-        };
-        let ltc = ShadingLtc::new(&lobes, ctx.frame, wo, self.table, &self.options);
-        if !(ltc.total() > 0.0) {
-            // The product vanishes everywhere: sample the BSDF.
-            return None;
+            cache.deeper.insert(self.build(&lobes, ctx)).weights()
         }
-        if ltc.prefers_radiance_only() {
-            return Some(ProductWeights::RadianceOnly {
-                albedo: ltc.total(),
-            });
-        }
-        Some(ProductWeights::Product {
-            ltc,
-            kernel: self.kernel,
-            memo: ChildMemo::default(),
-        })
     }
 
     /// With product weights the root normaliser Σ_k L_k·D_k already
@@ -274,13 +342,13 @@ impl WeightModel for ProductModel<'_> {
     /// estimated as for radiance guiding.
     fn adjoint(
         &self,
-        weights: &ProductWeights,
+        weights: &ProductWeights<'_>,
         ctx: &VertexContext,
         root_total: f32,
         root_radiance: [f32; 4],
     ) -> f32 {
         match weights {
-            ProductWeights::Product { .. } => root_total,
+            ProductWeights::Product(_) => root_total,
             ProductWeights::RadianceOnly { albedo } => {
                 reflected_radiance_estimate(ctx.frame, ctx.wo_local, *albedo, root_radiance)
             }
@@ -313,7 +381,7 @@ mod tests {
     use crate::sampling::{Distribution1D, Rng};
     use glam::Vec3;
 
-    fn product_weights(table: &LtcTable, alpha: f32) -> ProductWeights {
+    fn product_lobe(table: &LtcTable, alpha: f32) -> ProductLobe {
         let frame = Frame::from_normal(Vec3::new(0.3, -0.5, 0.8).normalize());
         let wo = Vec3::new(0.55, 0.45, 0.707).normalize();
         let lobes = Lobes {
@@ -324,11 +392,7 @@ mod tests {
             side: 1.0,
         };
         let ltc = ShadingLtc::new(&lobes, &frame, wo, table, &LtcOptions::default());
-        ProductWeights::Product {
-            ltc,
-            kernel: ProductKernel::Simd,
-            memo: ChildMemo::default(),
-        }
+        ProductLobe::new(ltc, ProductKernel::Simd)
     }
 
     /// The guider's options trade accuracy for speed, but stay close to the
@@ -421,11 +485,13 @@ mod tests {
         let mut rng = Rng::new(7, 2);
         let t = tree(&mut rng);
         for alpha in [0.05f32, 0.3] {
-            let mut w = product_weights(&table, alpha);
+            let mut lobe = product_lobe(&table, alpha);
+            let mut w = ProductWeights::Product(&mut lobe);
+            let fresh = || product_lobe(&table, alpha);
             let root = descent::root_total(&t, &mut w);
             assert_eq!(
                 root.to_bits(),
-                descent::root_total(&t, &mut product_weights(&table, alpha)).to_bits()
+                descent::root_total(&t, &mut ProductWeights::Product(&mut fresh())).to_bits()
             );
             let mut sampled = 0;
             for _ in 0..400 {
@@ -433,14 +499,14 @@ mod tests {
                 if let Some((p, pdf_s)) = descent::sample(&t, &mut w, u) {
                     sampled += 1;
                     let pdf_memo = descent::pdf(&t, &mut w, p);
-                    let pdf_fresh = descent::pdf(&t, &mut product_weights(&table, alpha), p);
+                    let pdf_fresh = descent::pdf(&t, &mut ProductWeights::Product(&mut fresh()), p);
                     assert_eq!(pdf_s.to_bits(), pdf_memo.to_bits(), "{p:?}");
                     assert_eq!(pdf_s.to_bits(), pdf_fresh.to_bits(), "{p:?}");
                 }
                 // A pdf at an unrelated point in between evicts deep slots.
                 let q = rng.next_2d();
                 let a = descent::pdf(&t, &mut w, q);
-                let b = descent::pdf(&t, &mut product_weights(&table, alpha), q);
+                let b = descent::pdf(&t, &mut ProductWeights::Product(&mut fresh()), q);
                 assert_eq!(a.to_bits(), b.to_bits());
             }
             assert!(sampled > 300);
@@ -452,6 +518,19 @@ mod tests {
         assert_eq!(m.get_or(c, || [9.0; 4]), [1.0, 2.0, 3.0, 4.0]);
         let d = Cell::ROOT.child(2).child(3);
         assert_eq!(m.get_or(d, || [5.0; 4]), [5.0; 4]);
+        assert_eq!(m.get_or(c, || [6.0; 4]), [1.0, 2.0, 3.0, 4.0]);
+        m.clear();
         assert_eq!(m.get_or(c, || [6.0; 4]), [6.0; 4]);
+        // More cells than slots: each still gets its own value back.
+        let mut cell = Cell::ROOT;
+        for depth in 0..20 {
+            for k in 0..4 {
+                let child = cell.child(k);
+                let v = [depth as f32, k as f32, 0.0, 1.0];
+                assert_eq!(m.get_or(child, || v), v);
+                assert_eq!(m.get_or(child, || [9.0; 4]), v);
+            }
+            cell = cell.child(depth % 4);
+        }
     }
 }

@@ -58,6 +58,9 @@ pub struct Record {
     /// Any value unique to the vertex (e.g. a hash of pass, pixel, depth);
     /// seeds the spatial jitter so it does not depend on thread timing.
     pub seed: u64,
+    /// The pass the path belongs to: a leaf's Adam steps are taken in
+    /// pass order, whichever passes a render call traced together.
+    pub pass: u64,
 }
 
 /// Counters of [`record_pass`]. Every record lands in exactly one of the
@@ -135,8 +138,8 @@ impl RecordBuffer {
     }
 }
 
-/// One Adam sample: (F/p, p_bsdf, p_guide, α used).
-type AdamSample = [f32; 4];
+/// One Adam sample: (pass, [F/p, p_bsdf, p_guide, α used]).
+type AdamSample = (u64, [f32; 4]);
 
 /// Work for one leaf: directional splats and Adam samples, in record order.
 /// The Adam inputs are copied here rather than indexed: the leaves visit
@@ -176,10 +179,18 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
                 if r.guided {
                     work[own as usize]
                         .adam
-                        .push([r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]);
+                        .push((r.pass, [r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]));
                 }
             }
         }
+    }
+    // A render call traces a pixel's passes one after the other; Adam,
+    // which steps sample by sample, sees them pass by pass (a stable sort:
+    // within a pass, in image order), as if the passes had been traced one
+    // at a time. Consecutive steps on one pixel's correlated samples had
+    // let the momentum drift (staircase, 16 spp: +12 % variance).
+    for w in &mut work {
+        w.adam.sort_by_key(|&(pass, _)| pass);
     }
     let adam_cfg = tree.config.adam;
     let leaf_adam: Vec<AdamStats> = tree
@@ -192,7 +203,7 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
                 let _ = leaf.recording.record_box(p, v);
             }
             let mut s = AdamStats::default();
-            for &[product, bsdf_pdf, guide_pdf, alpha] in &w.adam {
+            for &(_, [product, bsdf_pdf, guide_pdf, alpha]) in &w.adam {
                 let _: Result<(), NonFiniteGradient> = leaf
                     .fraction
                     .step_sample(&adam_cfg, product, bsdf_pdf, guide_pdf, alpha, &mut s);

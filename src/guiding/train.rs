@@ -10,10 +10,12 @@ use super::sdtree::{SdTree, SdTreeConfig};
 use crate::film::image::{Film, Image};
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::{PathSettings, RouletteMode};
-use crate::integrator::render_pass;
+use crate::integrator::render_passes;
 use crate::integrator::stats::RenderCounters;
 use crate::math::{Spectrum, luminance};
-use crate::render::{Budget, RenderClock, RenderOptions, SnapshotPlan};
+use crate::render::{
+    Budget, RenderClock, RenderOptions, SnapshotPlan, passes_per_call, seconds_left,
+};
 use crate::scene::Scene;
 use serde::Serialize;
 
@@ -208,9 +210,12 @@ fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
     1.0 / (iteration_variance(film, mu).0 * seconds)
 }
 
-/// Passes of the comparison iteration alternate between the model's child
+/// Calls of the comparison iteration alternate between the model's child
 /// weights (index 0) and the cheaper ones (index 1), each into its own film
 /// with its own render time (recording excluded: it costs both the same).
+/// Each call renders [`TRIAL_CALL_PASSES`] passes pixel-major, as the rest
+/// of the run does, so each side is timed with the pixel-major reuse it
+/// will have (product guiding's first lobe, `guiding::pixel_reuse`).
 struct WeightsTrial {
     films: [Film; 2],
     seconds: [f64; 2],
@@ -220,7 +225,15 @@ struct WeightsTrial {
 /// iteration's length).
 const TRIAL_PASSES: u32 = 1 << FALLBACK_CHECK_ITERATION;
 
+/// Passes per call of the weights trial: four calls, ABAB.
+const TRIAL_CALL_PASSES: u32 = TRIAL_PASSES / 4;
+
 impl WeightsTrial {
+    /// The side the next call renders: the one with fewer passes so far.
+    fn next_side(&self) -> usize {
+        (self.films[0].spp > self.films[1].spp) as usize
+    }
+
     fn passes(&self) -> u32 {
         self.films[0].spp + self.films[1].spp
     }
@@ -348,14 +361,33 @@ pub fn render_guided<M: WeightModel>(
         // The share of this iteration's film that the unguided check should
         // judge: the chosen weights' half when a trial ran.
         let mut chosen_share: Option<(Film, f64, f64)> = None;
+        let mut seconds_per_pass = None;
         loop {
             match target {
                 Budget::Spp(n) if film.spp >= n => break,
                 Budget::Seconds(end) if clock.seconds() >= end && film.spp > 0 => break,
                 _ => {}
             }
+            let call_start = clock.seconds();
+            let (passes_left, deadline) = match target {
+                Budget::Spp(n) => (Some((n - film.spp) as u64), None),
+                Budget::Seconds(end) => (None, Some(end)),
+            };
+            let n = match &trial {
+                Some(t) => {
+                    let trial_left = TRIAL_PASSES.saturating_sub(t.passes()).max(1);
+                    let n = TRIAL_CALL_PASSES.min(trial_left) as u64;
+                    passes_left.map_or(n, |left| n.min(left))
+                }
+                None => passes_per_call(
+                    passes_left,
+                    seconds_left(call_start, deadline, snapshots),
+                    seconds_per_pass,
+                ),
+            };
+            let passes = pass..pass + n;
             if fallback.is_empty() {
-                let alternate = trial.is_some() && pass % 2 == 1;
+                let alternate = trial.as_ref().is_some_and(|t| t.next_side() == 1);
                 let active = match &cheaper {
                     Some(c) if use_cheaper || alternate => c,
                     _ => model,
@@ -364,22 +396,20 @@ pub fn render_guided<M: WeightModel>(
                     tree: &tree,
                     model: active,
                     learning: training,
-                    pass,
                     fixed_alpha: opts.bsdf_fraction,
                 };
-                let pass_start = clock.seconds();
-                let out = render_pass(
+                let out = render_passes(
                     scene,
                     &guide,
                     &opts.path,
                     opts.seed,
-                    pass,
+                    passes,
                     pixel_estimates.as_deref(),
                 );
                 if let Some(t) = trial.as_mut() {
                     let i = alternate as usize;
                     t.films[i].merge(&out.film);
-                    t.seconds[i] += clock.seconds() - pass_start;
+                    t.seconds[i] += clock.seconds() - call_start;
                 }
                 film.merge(&out.film);
                 if trial.as_ref().is_some_and(|t| t.passes() >= TRIAL_PASSES) {
@@ -402,12 +432,13 @@ pub fn render_guided<M: WeightModel>(
                     adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
                     ..opts.path
                 };
-                let out = render_pass(scene, &NoGuide, &unguided, opts.seed, pass, None);
+                let out = render_passes(scene, &NoGuide, &unguided, opts.seed, passes, None);
                 film.merge(&out.film);
                 counters.add(&out.counters);
             }
-            pass += 1;
+            pass += n;
             let now = clock.seconds();
+            seconds_per_pass = Some((now - call_start) / n as f64);
             if snapshots.due(now) {
                 let spp = total_spp(&films, &film);
                 clock.excluding(|| {

@@ -65,24 +65,43 @@ pub struct PathVertex {
     pub depth: u32,
 }
 
+/// Per-worker memory a guide keeps between the paths of one pixel. The
+/// render loop ends it after every pixel, so what a path sees never
+/// depends on which pixels a worker happened to render before (images stay
+/// reproducible for a seed and thread count).
+pub trait VertexCache: Default + Send {
+    /// Forgets the pixel and adds what the cache counted to `counters`.
+    fn end_pixel(&mut self, counters: &mut crate::integrator::stats::RenderCounters);
+}
+
+impl VertexCache for () {
+    fn end_pixel(&mut self, _counters: &mut crate::integrator::stats::RenderCounters) {}
+}
+
 pub trait Guide: Sync {
     type Vertex<'a>: GuideVertex
     where
         Self: 'a;
     /// Per-thread storage for learning records.
     type Recorder: Send;
+    /// Per-worker memory shared by the paths of a pixel.
+    type Cache: VertexCache;
 
     /// The sampling distribution at a non-delta vertex; `None` means BSDF
-    /// sampling only.
-    fn vertex<'a>(&'a self, ctx: &VertexContext) -> Option<Self::Vertex<'a>>;
+    /// sampling only. The vertex may keep what it computes in `cache`.
+    fn vertex<'a>(
+        &'a self,
+        ctx: &VertexContext,
+        cache: &'a mut Self::Cache,
+    ) -> Option<Self::Vertex<'a>>;
 
     fn new_recorder(&self) -> Self::Recorder;
 
     /// True while the guide is learning and wants finished paths.
     fn learning(&self) -> bool;
 
-    /// Records a finished path's vertices.
-    fn record(&self, recorder: &mut Self::Recorder, vertices: &[PathVertex]);
+    /// Records a finished path's vertices; `pass` is the path's pass index.
+    fn record(&self, recorder: &mut Self::Recorder, vertices: &[PathVertex], pass: u64);
 }
 
 /// Plain path tracing: no guide.
@@ -105,8 +124,9 @@ impl GuideVertex for Never {
 impl Guide for NoGuide {
     type Vertex<'a> = Never;
     type Recorder = ();
+    type Cache = ();
 
-    fn vertex<'a>(&'a self, _ctx: &VertexContext) -> Option<Never> {
+    fn vertex<'a>(&'a self, _ctx: &VertexContext, _cache: &'a mut ()) -> Option<Never> {
         None
     }
 
@@ -116,5 +136,5 @@ impl Guide for NoGuide {
         false
     }
 
-    fn record(&self, _recorder: &mut (), _vertices: &[PathVertex]) {}
+    fn record(&self, _recorder: &mut (), _vertices: &[PathVertex], _pass: u64) {}
 }

@@ -11,7 +11,7 @@ use crate::film::image::Film;
 use crate::sampling::Rng;
 use crate::scene::Scene;
 use glam::Vec2;
-use guide::Guide;
+use guide::{Guide, VertexCache};
 use path::{PathScratch, PathSettings, trace_path};
 use rayon::prelude::*;
 use stats::RenderCounters;
@@ -36,14 +36,15 @@ fn pass_seed(seed: u64, pass: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Renders one pass (1 spp) with global pass index `pass`. Must run inside
-/// the caller's rayon pool.
-pub fn render_pass<G: Guide>(
+/// Renders the passes `passes` (1 spp each over the image, pixel-major, see
+/// [`render_passes_into`]) into a film of their own. Must run inside the
+/// caller's rayon pool.
+pub fn render_passes<G: Guide>(
     scene: &Scene,
     guide: &G,
     settings: &PathSettings,
     seed: u64,
-    pass: u64,
+    passes: std::ops::Range<u64>,
     pixel_estimates: Option<&[f32]>,
 ) -> PassOutput<G::Recorder> {
     let mut film = Film::new(scene.camera.width, scene.camera.height);
@@ -52,7 +53,7 @@ pub fn render_pass<G: Guide>(
         guide,
         settings,
         seed,
-        pass..pass + 1,
+        passes,
         pixel_estimates,
         &mut film,
     );
@@ -91,35 +92,41 @@ pub fn render_passes_into<G: Guide>(
         .par_chunks_mut(block_len)
         .zip(film.sum_sq.par_chunks_mut(block_len))
         .enumerate()
-        .map_init(PathScratch::default, |scratch, (block, (sum, sum_sq))| {
-            let mut counters = RenderCounters::default();
-            let mut recorder = guide.new_recorder();
-            for (k, (s, q)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
-                let index = block * block_len + k;
-                let (x, y) = (index % w, index / w);
-                for &stream_seed in &stream_seeds {
-                    let mut rng = Rng::new(stream_seed, index as u64);
-                    let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
-                    let (o, d) = scene.camera.ray(film_pos);
-                    let v = trace_path(
-                        scene,
-                        guide,
-                        settings,
-                        o,
-                        d,
-                        &mut rng,
-                        &mut counters,
-                        scratch,
-                        &mut recorder,
-                        pixel_estimates.map_or(0.0, |e| e[index]),
-                    );
-                    // What `Film::add_pass` does for this pixel.
-                    *s += v;
-                    *q += v * v;
+        .map_init(
+            || (PathScratch::default(), G::Cache::default()),
+            |(scratch, cache), (block, (sum, sum_sq))| {
+                let mut counters = RenderCounters::default();
+                let mut recorder = guide.new_recorder();
+                for (k, (s, q)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
+                    let index = block * block_len + k;
+                    let (x, y) = (index % w, index / w);
+                    for (&stream_seed, pass) in stream_seeds.iter().zip(passes.clone()) {
+                        scratch.pass = pass;
+                        let mut rng = Rng::new(stream_seed, index as u64);
+                        let film_pos = Vec2::new(x as f32, y as f32) + rng.next_2d();
+                        let (o, d) = scene.camera.ray(film_pos);
+                        let v = trace_path(
+                            scene,
+                            guide,
+                            settings,
+                            o,
+                            d,
+                            &mut rng,
+                            &mut counters,
+                            scratch,
+                            &mut recorder,
+                            cache,
+                            pixel_estimates.map_or(0.0, |e| e[index]),
+                        );
+                        // What `Film::add_pass` does for this pixel.
+                        *s += v;
+                        *q += v * v;
+                    }
+                    cache.end_pixel(&mut counters);
                 }
-            }
-            (counters, recorder)
-        })
+                (counters, recorder)
+            },
+        )
         .collect();
     film.spp += stream_seeds.len() as u32;
     let mut counters = RenderCounters::default();

@@ -44,6 +44,8 @@ pub struct PathScratch {
     pub vertices: Vec<PathVertex>,
     /// (number of vertices that precede the contribution, contribution)
     contributions: Vec<(usize, Spectrum)>,
+    /// Index of the pass the current path belongs to (for its records).
+    pub pass: u64,
 }
 
 impl Default for PathScratch {
@@ -51,6 +53,7 @@ impl Default for PathScratch {
         PathScratch {
             vertices: Vec::with_capacity(16),
             contributions: Vec::with_capacity(16),
+            pass: 0,
         }
     }
 }
@@ -120,6 +123,7 @@ pub fn trace_path<G: Guide>(
     counters: &mut RenderCounters,
     scratch: &mut PathScratch,
     recorder: &mut G::Recorder,
+    cache: &mut G::Cache,
     pixel_estimate: f32,
 ) -> Spectrum {
     let learning = guide.learning();
@@ -199,15 +203,18 @@ pub fn trace_path<G: Guide>(
         // Next-event estimation at vertices with a non-delta component.
         let mut guide_vertex = None;
         if !smooth_only {
-            guide_vertex = guide.vertex(&VertexContext {
-                p: it.p,
-                ng: it.ng,
-                frame: &it.frame,
-                wo_local: wo,
-                bsdf: &bsdf,
-                needs_adjoint: adrrs_here,
-                vertex_index: segments - 1,
-            });
+            guide_vertex = guide.vertex(
+                &VertexContext {
+                    p: it.p,
+                    ng: it.ng,
+                    frame: &it.frame,
+                    wo_local: wo,
+                    bsdf: &bsdf,
+                    needs_adjoint: adrrs_here,
+                    vertex_index: segments - 1,
+                },
+                cache,
+            );
         }
         // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected
         // contribution of everything from this vertex on is throughput ×
@@ -376,7 +383,7 @@ pub fn trace_path<G: Guide>(
                 );
             }
         }
-        guide.record(recorder, &scratch.vertices);
+        guide.record(recorder, &scratch.vertices, scratch.pass);
     }
     radiance
 }

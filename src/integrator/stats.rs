@@ -14,6 +14,10 @@ pub struct RenderCounters {
     pub invalid_scattering: u64,
     /// Guided samples whose direction fell on the wrong side of the surface.
     pub guided_below_horizon: u64,
+    /// First vertices whose product lobe was reused from an earlier path of
+    /// the pixel / built anew (product guiding with reuse in a pixel).
+    pub product_lobes_reused: u64,
+    pub product_lobes_built: u64,
     /// Adjoint-driven roulette decisions.
     #[serde(flatten)]
     pub adrrs: AdrrsCounters,
@@ -30,6 +34,8 @@ impl RenderCounters {
         self.nonfinite_samples += o.nonfinite_samples;
         self.invalid_scattering += o.invalid_scattering;
         self.guided_below_horizon += o.guided_below_horizon;
+        self.product_lobes_reused += o.product_lobes_reused;
+        self.product_lobes_built += o.product_lobes_built;
         self.adrrs.merge(&o.adrrs);
     }
 }
