@@ -156,8 +156,9 @@ struct RenderArgs {
     /// Product guiding: every path computes its own first product lobe, as
     /// in the paper. By default a pixel's paths reuse the first vertex's
     /// lobe and its child integrals while it matches theirs (same lobes
-    /// within 30 %, normal and ω_o within α/10): staircase, 64 spp, 1.18×
-    /// faster at the same variance per sample (docs/results-reading.md).
+    /// within 30 %, normal and ω_o within α/10); product then runs at 0.86×
+    /// radiance guiding's spp/s on staircase at 64 spp
+    /// (docs/results-reading.md).
     #[arg(long)]
     no_pixel_reuse: bool,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
