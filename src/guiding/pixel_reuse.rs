@@ -20,10 +20,11 @@
 //! distribution depends only on the earlier paths of its own pixel, in
 //! their fixed order, and images stay reproducible.
 
-use super::product::BuiltWeights;
+use super::product::{ProductLobe, ProductWeights};
 use crate::bsdf::Lobes;
 use crate::integrator::guide::{VertexCache, VertexContext};
 use crate::integrator::stats::RenderCounters;
+use crate::ltc::{ProductKernel, ShadingLtc};
 use glam::Vec3;
 
 /// Two lobes' outgoing directions and normals may differ by this fraction
@@ -82,13 +83,70 @@ impl LobeKey {
     }
 }
 
+/// What the product model built at a shading point, in storage that keeps
+/// its lobe in place from one build to the next: the child memo is 6 KB,
+/// and a build only clears its keys instead of initialising and moving it.
+#[derive(Default)]
+pub struct LobeSlot {
+    built: Built,
+    /// The last product lobe built here (kept while `built` says otherwise,
+    /// for its storage).
+    lobe: Option<ProductLobe>,
+}
+
+#[derive(Clone, Copy, Default)]
+enum Built {
+    /// The product vanishes everywhere: sample the BSDF.
+    #[default]
+    Vanishes,
+    RadianceOnly {
+        albedo: f32,
+    },
+    Product,
+}
+
+impl LobeSlot {
+    pub fn set_vanishes(&mut self) {
+        self.built = Built::Vanishes;
+    }
+
+    pub fn set_radiance_only(&mut self, albedo: f32) {
+        self.built = Built::RadianceOnly { albedo };
+    }
+
+    pub fn set_product(&mut self, ltc: ShadingLtc, kernel: ProductKernel) {
+        match &mut self.lobe {
+            Some(lobe) => {
+                lobe.ltc = ltc;
+                lobe.kernel = kernel;
+                lobe.memo.clear();
+            }
+            None => self.lobe = Some(ProductLobe::new(ltc, kernel)),
+        }
+        self.built = Built::Product;
+    }
+
+    /// The weights built here; `None`: sample the BSDF.
+    pub fn weights(&mut self) -> Option<ProductWeights<'_>> {
+        match self.built {
+            Built::Vanishes => None,
+            Built::RadianceOnly { albedo } => Some(ProductWeights::RadianceOnly { albedo }),
+            Built::Product => Some(ProductWeights::Product(
+                self.lobe.as_mut().expect("set_product stores a lobe"),
+            )),
+        }
+    }
+}
+
 /// The worker's product lobes: the first vertex's, kept for the pixel's
-/// next paths, and a slot for deeper vertices (rebuilt at each, but
+/// next paths, and a slot for the other vertices (rebuilt at each, but
 /// borrowed in place rather than moved with the weights).
 #[derive(Default)]
 pub struct ProductCache {
-    first: Option<(LobeKey, BuiltWeights)>,
-    pub deeper: Option<BuiltWeights>,
+    /// The key of `first`'s lobe; `None` when the pixel has none yet.
+    first_key: Option<LobeKey>,
+    first: LobeSlot,
+    other: LobeSlot,
     /// First vertices that reused the kept lobe / built their own, since
     /// the last `end_pixel`.
     reused: u64,
@@ -97,26 +155,32 @@ pub struct ProductCache {
 
 impl ProductCache {
     /// The first vertex's weights for `key`: the kept ones when their key
-    /// matches, else `build()`'s, which are kept in their place.
+    /// matches, else what `build` puts in their place.
     pub fn first_vertex(
         &mut self,
         key: LobeKey,
-        build: impl FnOnce() -> BuiltWeights,
-    ) -> &mut BuiltWeights {
-        let reuse = matches!(&self.first, Some((kept, _)) if kept.matches(&key));
-        if reuse {
+        build: impl FnOnce(&mut LobeSlot),
+    ) -> &mut LobeSlot {
+        if self.first_key.is_some_and(|kept| kept.matches(&key)) {
             self.reused += 1;
         } else {
             self.built += 1;
-            self.first = Some((key, build()));
+            build(&mut self.first);
+            self.first_key = Some(key);
         }
-        &mut self.first.as_mut().expect("set above").1
+        &mut self.first
+    }
+
+    /// Any other vertex's weights: built anew at each.
+    pub fn other_vertex(&mut self, build: impl FnOnce(&mut LobeSlot)) -> &mut LobeSlot {
+        build(&mut self.other);
+        &mut self.other
     }
 }
 
 impl VertexCache for ProductCache {
     fn end_pixel(&mut self, counters: &mut RenderCounters) {
-        self.first = None;
+        self.first_key = None;
         counters.product_lobes_reused += std::mem::take(&mut self.reused);
         counters.product_lobes_built += std::mem::take(&mut self.built);
     }
@@ -173,16 +237,14 @@ mod tests {
         let a = key(0.4, 0.1, Vec3::Z, Vec3::new(0.6, 0.0, 0.8));
         let b = key(0.4, 0.1, Vec3::X, Vec3::new(0.6, 0.0, 0.8));
         let mut get = |cache: &mut ProductCache, k: LobeKey| {
-            let albedo = match cache.first_vertex(k, || {
+            let slot = cache.first_vertex(k, |slot| {
                 builds += 1;
-                BuiltWeights::RadianceOnly {
-                    albedo: builds as f32,
-                }
-            }) {
-                BuiltWeights::RadianceOnly { albedo } => *albedo,
+                slot.set_radiance_only(builds as f32);
+            });
+            match slot.weights() {
+                Some(ProductWeights::RadianceOnly { albedo }) => albedo,
                 _ => unreachable!(),
-            };
-            albedo
+            }
         };
         assert_eq!(get(&mut cache, a), 1.0);
         assert_eq!(get(&mut cache, a), 1.0);

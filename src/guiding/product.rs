@@ -13,7 +13,7 @@
 
 use super::descent::ChildWeights;
 use super::guide::{WeightModel, reflected_radiance_estimate};
-pub use super::pixel_reuse::{LobeKey, ProductCache};
+pub use super::pixel_reuse::{LobeKey, LobeSlot, ProductCache};
 use crate::directional::Cell;
 use crate::integrator::guide::VertexContext;
 use crate::ltc::{LtcOptions, LtcTable, ProductKernel, ShadingLtc};
@@ -258,30 +258,9 @@ impl ChildWeights for ProductWeights<'_> {
     }
 }
 
-/// What the product model built at a shading point.
-pub enum BuiltWeights {
-    /// The product vanishes everywhere: sample the BSDF.
-    Vanishes,
-    RadianceOnly {
-        albedo: f32,
-    },
-    Product(ProductLobe),
-}
-
-impl BuiltWeights {
-    pub fn weights(&mut self) -> Option<ProductWeights<'_>> {
-        match self {
-            BuiltWeights::Vanishes => None,
-            BuiltWeights::RadianceOnly { albedo } => {
-                Some(ProductWeights::RadianceOnly { albedo: *albedo })
-            }
-            BuiltWeights::Product(lobe) => Some(ProductWeights::Product(lobe)),
-        }
-    }
-}
-
 impl ProductModel<'_> {
-    fn build(&self, lobes: &crate::bsdf::Lobes, ctx: &VertexContext) -> BuiltWeights {
+    /// Builds the weights at a shading point into `slot`.
+    fn build(&self, lobes: &crate::bsdf::Lobes, ctx: &VertexContext, slot: &mut LobeSlot) {
         // Two-sided mirroring flips z only (the lobes' frame).
         let w = ctx.wo_local;
         let wo = if lobes.side < 0.0 {
@@ -291,13 +270,11 @@ impl ProductModel<'_> {
         };
         let ltc = ShadingLtc::new(lobes, ctx.frame, wo, self.table, &self.options);
         if !(ltc.total() > 0.0) {
-            BuiltWeights::Vanishes
+            slot.set_vanishes();
         } else if ltc.prefers_radiance_only() {
-            BuiltWeights::RadianceOnly {
-                albedo: ltc.total(),
-            }
+            slot.set_radiance_only(ltc.total());
         } else {
-            BuiltWeights::Product(ProductLobe::new(ltc, self.kernel))
+            slot.set_product(ltc, self.kernel);
         }
     }
 }
@@ -327,13 +304,13 @@ impl WeightModel for ProductModel<'_> {
         if self.cosine_lobes == CosineLobes::Radiance && only_cosine_lobes(&lobes, &self.options) {
             return radiance_weights();
         }
+        let build = |slot: &mut LobeSlot| self.build(&lobes, ctx, slot);
         if self.reuse_in_pixel && ctx.vertex_index == 0 {
-            let key = LobeKey::new(lobes, ctx);
             cache
-                .first_vertex(key, || self.build(&lobes, ctx))
+                .first_vertex(LobeKey::new(lobes, ctx), build)
                 .weights()
         } else {
-            cache.deeper.insert(self.build(&lobes, ctx)).weights()
+            cache.other_vertex(build).weights()
         }
     }
 
@@ -448,6 +425,42 @@ mod tests {
             assert!(worst < 0.045, "{worst}");
             assert!(worst > 0.0, "the guiding options changed nothing");
         }
+    }
+
+    /// A slot rebuilt in place forgets the previous lobe's child integrals:
+    /// after a lobe of α = 0.05 was descended, a lobe of α = 0.3 built into
+    /// the same slot gives the weights of a fresh one, bit for bit.
+    #[test]
+    fn a_slot_rebuilt_in_place_forgets_the_previous_lobe() {
+        let table = LtcTable::load_default().unwrap();
+        let mut rng = Rng::new(4, 4);
+        let t = tree(&mut rng);
+        let mut slot = LobeSlot::default();
+        let set = |slot: &mut LobeSlot, alpha| {
+            let lobe = product_lobe(&table, alpha);
+            slot.set_product(lobe.ltc, lobe.kernel);
+        };
+        set(&mut slot, 0.05);
+        let sharp = descent::root_total(&t, &mut slot.weights().unwrap());
+        slot.set_radiance_only(1.0);
+        assert!(matches!(
+            slot.weights(),
+            Some(ProductWeights::RadianceOnly { .. })
+        ));
+        set(&mut slot, 0.3);
+        let mut fresh = product_lobe(&table, 0.3);
+        let rough = descent::root_total(&t, &mut ProductWeights::Product(&mut fresh));
+        assert_ne!(sharp.to_bits(), rough.to_bits());
+        let mut w = slot.weights().unwrap();
+        assert_eq!(descent::root_total(&t, &mut w).to_bits(), rough.to_bits());
+        for _ in 0..50 {
+            let q = rng.next_2d();
+            let a = descent::pdf(&t, &mut w, q);
+            let b = descent::pdf(&t, &mut ProductWeights::Product(&mut fresh), q);
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
+        slot.set_vanishes();
+        assert!(slot.weights().is_none());
     }
 
     /// A full tree to node depth 3 with random sums (some zero), and a chain
