@@ -131,38 +131,49 @@ impl SnapshotPlan {
 /// Most passes one pixel-major call renders (so the progress bar moves).
 const MAX_PASSES_PER_CALL: u64 = 16;
 
-/// How many passes the next call of `render_passes_into` renders.
+/// Chooses how many passes each call of `render_passes_into` renders.
 ///
 /// A call traces each pixel's paths one after the other: their first hits
 /// stay in cache, and product guiding reuses a pixel's first product lobe
 /// (`guiding::pixel_reuse`). But the clock is read only between calls, so:
-/// - a sample budget renders what is left of it (`passes_left`);
-/// - a deadline or a snapshot `seconds_left` away takes about half of
-///   that time, judged by the last call's `seconds_per_pass`, so the calls
-///   shrink towards it and a run overshoots by about one pass, as one pass
-///   per call did; before any call has been timed, one pass.
-pub fn passes_per_call(
-    passes_left: Option<u64>,
-    seconds_left: Option<f64>,
+/// - a sample budget renders what is left of it;
+/// - a deadline or a snapshot some seconds away takes about half of that
+///   time, judged by the last call's seconds per pass, so the calls shrink
+///   towards it and a run overshoots by about one pass, as one pass per
+///   call did; before any call has been timed, one pass.
+#[derive(Default)]
+pub struct PassPacer {
     seconds_per_pass: Option<f64>,
-) -> u64 {
-    let mut n = MAX_PASSES_PER_CALL;
-    if let Some(p) = passes_left {
-        n = n.min(p);
-    }
-    if let Some(t) = seconds_left {
-        n = match seconds_per_pass {
-            Some(s) if s > 0.0 && t.is_finite() => n.min((0.5 * t / s).max(0.0) as u64),
-            _ => 1,
-        };
-    }
-    n.max(1)
 }
 
-/// Seconds until the deadline or the next snapshot, whichever comes first.
-pub fn seconds_left(now: f64, deadline: Option<f64>, snapshots: &SnapshotPlan) -> Option<f64> {
-    let next = [deadline, snapshots.next_time()].into_iter().flatten();
-    next.map(|t| t - now).reduce(f64::min)
+impl PassPacer {
+    /// Passes for a call starting at `now`, with `passes_left` of a sample
+    /// budget or a `deadline`, and the snapshots still to take.
+    pub fn next_call(
+        &self,
+        now: f64,
+        passes_left: Option<u64>,
+        deadline: Option<f64>,
+        snapshots: &SnapshotPlan,
+    ) -> u64 {
+        let mut n = MAX_PASSES_PER_CALL;
+        if let Some(p) = passes_left {
+            n = n.min(p);
+        }
+        let next = [deadline, snapshots.next_time()].into_iter().flatten();
+        if let Some(t) = next.map(|t| t - now).reduce(f64::min) {
+            n = match self.seconds_per_pass {
+                Some(s) if s > 0.0 && t.is_finite() => n.min((0.5 * t / s).max(0.0) as u64),
+                _ => 1,
+            };
+        }
+        n.max(1)
+    }
+
+    /// Records that a call rendered `passes` in `seconds`.
+    pub fn called(&mut self, passes: u64, seconds: f64) {
+        self.seconds_per_pass = Some(seconds / passes as f64);
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -484,7 +495,7 @@ fn render_unguided(
         Budget::Seconds(s) => Some(s),
     };
     let mut pass = 0u64;
-    let mut seconds_per_pass = None;
+    let mut pacer = PassPacer::default();
     loop {
         match (opts.budget, deadline) {
             (Budget::Spp(n), _) if pass >= n as u64 => break,
@@ -496,11 +507,7 @@ fn render_unguided(
             Budget::Spp(n) => Some(n as u64 - pass),
             Budget::Seconds(_) => None,
         };
-        let n = passes_per_call(
-            passes_left,
-            seconds_left(start, deadline, snapshots),
-            seconds_per_pass,
-        );
+        let n = pacer.next_call(start, passes_left, deadline, snapshots);
         let (c, _) = render_passes_into(
             scene,
             &NoGuide,
@@ -513,7 +520,7 @@ fn render_unguided(
         counters.add(&c);
         pass += n;
         let now = clock.seconds();
-        seconds_per_pass = Some((now - start) / n as f64);
+        pacer.called(n, now - start);
         if snapshots.due(now) {
             clock.excluding(|| snapshots.take(now, film.spp, film.image()));
         }
@@ -525,4 +532,31 @@ fn render_unguided(
         }
     }
     (film, counters)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Calls take what is left of a sample budget (at most 16 passes), one
+    /// pass until a timed budget has a pace, then about half the time left
+    /// before the deadline or the next snapshot, whichever is nearer.
+    #[test]
+    fn the_pacer_takes_half_the_time_left() {
+        let none = SnapshotPlan::default();
+        let mut pacer = PassPacer::default();
+        assert_eq!(pacer.next_call(0.0, Some(40), None, &none), 16);
+        assert_eq!(pacer.next_call(0.0, Some(3), None, &none), 3);
+        assert_eq!(pacer.next_call(0.0, None, Some(10.0), &none), 1);
+        pacer.called(2, 0.25);
+        assert_eq!(pacer.next_call(0.0, None, Some(1.0), &none), 4);
+        assert_eq!(pacer.next_call(0.0, None, Some(100.0), &none), 16);
+        assert_eq!(pacer.next_call(2.0, None, Some(1.0), &none), 1, "past it");
+        let snapshots = SnapshotPlan {
+            times: vec![0.6],
+            ..Default::default()
+        };
+        assert_eq!(pacer.next_call(0.0, None, Some(10.0), &snapshots), 2);
+        assert_eq!(pacer.next_call(0.0, Some(40), None, &snapshots), 2);
+    }
 }

@@ -13,9 +13,7 @@ use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::integrator::render_passes;
 use crate::integrator::stats::RenderCounters;
 use crate::math::{Spectrum, luminance};
-use crate::render::{
-    Budget, RenderClock, RenderOptions, SnapshotPlan, passes_per_call, seconds_left,
-};
+use crate::render::{Budget, PassPacer, RenderClock, RenderOptions, SnapshotPlan};
 use crate::scene::Scene;
 use serde::Serialize;
 
@@ -361,7 +359,7 @@ pub fn render_guided<M: WeightModel>(
         // The share of this iteration's film that the unguided check should
         // judge: the chosen weights' half when a trial ran.
         let mut chosen_share: Option<(Film, f64, f64)> = None;
-        let mut seconds_per_pass = None;
+        let mut pacer = PassPacer::default();
         loop {
             match target {
                 Budget::Spp(n) if film.spp >= n => break,
@@ -379,11 +377,7 @@ pub fn render_guided<M: WeightModel>(
                     let n = TRIAL_CALL_PASSES.min(trial_left) as u64;
                     passes_left.map_or(n, |left| n.min(left))
                 }
-                None => passes_per_call(
-                    passes_left,
-                    seconds_left(call_start, deadline, snapshots),
-                    seconds_per_pass,
-                ),
+                None => pacer.next_call(call_start, passes_left, deadline, snapshots),
             };
             let passes = pass..pass + n;
             if fallback.is_empty() {
@@ -438,7 +432,7 @@ pub fn render_guided<M: WeightModel>(
             }
             pass += n;
             let now = clock.seconds();
-            seconds_per_pass = Some((now - call_start) / n as f64);
+            pacer.called(n, now - call_start);
             if snapshots.due(now) {
                 let spp = total_spp(&films, &film);
                 clock.excluding(|| {
