@@ -52,6 +52,32 @@ enum Command {
     },
 }
 
+/// Product guiding's settings, shared by render and compare.
+#[derive(Args, Clone, Debug)]
+struct ProductArgs {
+    /// Product guiding at vertices whose lobes are all cosines (diffuse,
+    /// GGX with α > 0.5): `radiance` weights (default; the cosine product
+    /// measured at half their efficiency, docs/results-reading.md) or the
+    /// paper's cosine `product`.
+    #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
+    cosine_lobes: CosineLobes,
+    /// Product guiding: the first N vertices of each path take product
+    /// weights, deeper ones radiance weights (default 1: deeper vertices'
+    /// product measured at 13–32 % of the run's CPU for no resolvable
+    /// variance, docs/results-reading.md); 0 = every vertex, the paper's
+    /// setting.
+    #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
+    product_vertices: u32,
+    /// Product guiding: every path computes its own first product lobe, as
+    /// in the paper. By default a pixel's paths reuse the first vertex's
+    /// lobe and its child integrals while it matches theirs (same lobes
+    /// within 30 %, normal and ω_o within α/10); product then runs at 0.86×
+    /// radiance guiding's spp/s on staircase at 64 spp
+    /// (docs/results-reading.md).
+    #[arg(long)]
+    no_pixel_reuse: bool,
+}
+
 #[derive(Args, Clone)]
 struct CompareArgs {
     scene: PathBuf,
@@ -80,15 +106,8 @@ struct CompareArgs {
     /// ADRRS's weight-window ratio s for the guided methods (as for render).
     #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
     adrrs_window: f32,
-    /// Product guiding at vertices whose lobes are all cosines (as for render).
-    #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
-    cosine_lobes: CosineLobes,
-    /// Product guiding: vertices per path with product weights (as for render).
-    #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
-    product_vertices: u32,
-    /// Product guiding: every path computes its own first product lobe (as for render).
-    #[arg(long)]
-    no_pixel_reuse: bool,
+    #[command(flatten)]
+    product: ProductArgs,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -140,27 +159,8 @@ struct RenderArgs {
     /// Product guiding: child-integral implementation (the paper's Table 1 variants).
     #[arg(long, value_enum, default_value_t = KernelArg::Simd)]
     product_kernel: KernelArg,
-    /// Product guiding at vertices whose lobes are all cosines (diffuse,
-    /// GGX with α > 0.5): `radiance` weights (default; the cosine product
-    /// measured at half their efficiency, docs/results-reading.md) or the
-    /// paper's cosine `product`.
-    #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
-    cosine_lobes: CosineLobes,
-    /// Product guiding: the first N vertices of each path take product
-    /// weights, deeper ones radiance weights (default 1: deeper vertices'
-    /// product measured at 13–32 % of the run's CPU for no resolvable
-    /// variance, docs/results-reading.md); 0 = every vertex, the paper's
-    /// setting.
-    #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
-    product_vertices: u32,
-    /// Product guiding: every path computes its own first product lobe, as
-    /// in the paper. By default a pixel's paths reuse the first vertex's
-    /// lobe and its child integrals while it matches theirs (same lobes
-    /// within 30 %, normal and ω_o within α/10); product then runs at 0.86×
-    /// radiance guiding's spp/s on staircase at 64 spp
-    /// (docs/results-reading.md).
-    #[arg(long)]
-    no_pixel_reuse: bool,
+    #[command(flatten)]
+    product: ProductArgs,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -299,9 +299,9 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
-        cosine_lobes: args.cosine_lobes,
-        product_vertices: args.product_vertices,
-        pixel_reuse: !args.no_pixel_reuse,
+        cosine_lobes: args.product.cosine_lobes,
+        product_vertices: args.product.product_vertices,
+        pixel_reuse: !args.product.no_pixel_reuse,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
     };
@@ -460,9 +460,9 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         path_for: default_path_settings,
         nee: args.nee,
         guided_roulette: Some((args.guided_rr, args.adrrs_window)),
-        cosine_lobes: args.cosine_lobes,
-        product_vertices: args.product_vertices,
-        pixel_reuse: !args.no_pixel_reuse,
+        cosine_lobes: args.product.cosine_lobes,
+        product_vertices: args.product.product_vertices,
+        pixel_reuse: !args.product.no_pixel_reuse,
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;
