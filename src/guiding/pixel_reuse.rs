@@ -130,7 +130,9 @@ impl LobeSlot {
     pub fn weights(&mut self) -> Option<ProductWeights<'_>> {
         match self.built {
             Built::Vanishes => None,
-            Built::RadianceOnly { albedo } => Some(ProductWeights::RadianceOnly { albedo }),
+            Built::RadianceOnly { albedo } => Some(ProductWeights::RadianceOnly {
+                albedo: Some(albedo),
+            }),
             Built::Product => Some(ProductWeights::Product(
                 self.lobe.as_mut().expect("set_product stores a lobe"),
             )),
@@ -242,7 +244,7 @@ mod tests {
                 slot.set_radiance_only(builds as f32);
             });
             match slot.weights() {
-                Some(ProductWeights::RadianceOnly { albedo }) => albedo,
+                Some(ProductWeights::RadianceOnly { albedo: Some(a) }) => a,
                 _ => unreachable!(),
             }
         };

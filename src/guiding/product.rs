@@ -225,7 +225,13 @@ impl ProductLobe {
 /// Per-vertex weights: the product, or the radiance fallback.
 pub enum ProductWeights<'a> {
     Product(&'a mut ProductLobe),
-    RadianceOnly { albedo: f32 },
+    /// `albedo` is the LTC's estimate where a lobe was built (grazing ω_o);
+    /// `None` where none was: the adjoint then takes the BSDF's estimate,
+    /// computed only where roulette reads it (as radiance guiding does),
+    /// not at every radiance-weighted vertex.
+    RadianceOnly {
+        albedo: Option<f32>,
+    },
 }
 
 impl ChildWeights for ProductWeights<'_> {
@@ -291,11 +297,7 @@ impl WeightModel for ProductModel<'_> {
         ctx: &VertexContext,
         cache: &'a mut ProductCache,
     ) -> Option<ProductWeights<'a>> {
-        let radiance_weights = || {
-            Some(ProductWeights::RadianceOnly {
-                albedo: ctx.bsdf.albedo_estimate(ctx.wo_local),
-            })
-        };
+        let radiance_weights = || Some(ProductWeights::RadianceOnly { albedo: None });
         let deeper = self.product_vertices > 0 && ctx.vertex_index >= self.product_vertices;
         if self.radiance_only || deeper {
             return radiance_weights();
@@ -327,7 +329,8 @@ impl WeightModel for ProductModel<'_> {
         match weights {
             ProductWeights::Product(_) => root_total,
             ProductWeights::RadianceOnly { albedo } => {
-                reflected_radiance_estimate(ctx.frame, ctx.wo_local, *albedo, root_radiance)
+                let albedo = albedo.unwrap_or_else(|| ctx.bsdf.albedo_estimate(ctx.wo_local));
+                reflected_radiance_estimate(ctx.frame, ctx.wo_local, albedo, root_radiance)
             }
         }
     }
