@@ -314,6 +314,9 @@ pub fn render_guided<M: WeightModel>(
     let mut use_cheaper = false;
     let mut weights_check = String::new();
     let mut trial: Option<WeightsTrial> = None;
+    // Kept across iterations: the final iteration's first call then knows
+    // the pace, so a deadline bounds it (and the weights trial's calls).
+    let mut pacer = PassPacer::default();
     let total_spp =
         |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
 
@@ -359,11 +362,14 @@ pub fn render_guided<M: WeightModel>(
         // The share of this iteration's film that the unguided check should
         // judge: the chosen weights' half when a trial ran.
         let mut chosen_share: Option<(Film, f64, f64)> = None;
-        let mut pacer = PassPacer::default();
         loop {
             match target {
                 Budget::Spp(n) if film.spp >= n => break,
-                Budget::Seconds(end) if clock.seconds() >= end && film.spp > 0 => break,
+                Budget::Seconds(end)
+                    if film.spp > 0 && pacer.deadline_reached(clock.seconds(), end) =>
+                {
+                    break;
+                }
                 _ => {}
             }
             let call_start = clock.seconds();
@@ -375,6 +381,9 @@ pub fn render_guided<M: WeightModel>(
                 Some(t) => {
                     let trial_left = TRIAL_PASSES.saturating_sub(t.passes()).max(1);
                     let n = TRIAL_CALL_PASSES.min(trial_left) as u64;
+                    // A deadline bounds trial calls too: at four passes each
+                    // they overran a slow scene's budget by seconds.
+                    let n = pacer.bound_by_deadline(n, call_start, deadline);
                     passes_left.map_or(n, |left| n.min(left))
                 }
                 None => pacer.next_call(call_start, passes_left, deadline, snapshots),
