@@ -108,6 +108,12 @@ struct CompareArgs {
     adrrs_window: f32,
     #[command(flatten)]
     product: ProductArgs,
+    /// Render the methods of each run at the same time, each on an equal
+    /// share of --threads (at least one), instead of one after the other: on
+    /// a shared host every method then meets the same load, so their ratios
+    /// are side-by-side measurements.
+    #[arg(long)]
+    side_by_side: bool,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -209,6 +215,12 @@ impl From<KernelArg> for ProductKernel {
 const EXIT_BAD_INPUT: u8 = 2;
 
 fn main() -> ExitCode {
+    // Output piped into `head` and the like: end quietly when the reader
+    // closes the pipe, as Unix tools do, instead of panicking in println!.
+    // SAFETY: restoring a signal's default action before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     // No subcommand: render the default scene with default settings.
     let command = cli
@@ -463,6 +475,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
+        side_by_side: args.side_by_side,
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;

@@ -312,6 +312,25 @@ fn a_bad_cli_argument_is_a_clap_error() {
     assert!(String::from_utf8_lossy(&run.stderr).contains("invalid value"));
 }
 
+/// Output piped into a reader that closes early (`| head -1`): the CLI
+/// ends quietly (killed by SIGPIPE, as Unix tools are) instead of
+/// panicking in println! with a backtrace.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args(["info", data("ok/all_elements.xml").to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Closed before the scene has loaded, so every line meets a closed pipe.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_ne!(out.status.code(), Some(101), "{stderr}");
+}
+
 #[test]
 fn every_supported_element_loads() {
     let scene = load_scene(&data("ok/all_elements.xml")).expect("loads");
