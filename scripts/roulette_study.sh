@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Equal-time study of the guided methods under two roulettes: the paper's
 # adjoint-driven roulette (ADRRS, window s = 5) and Mitsuba's classic rule,
-# every method with NEE, on every pack scene. Writes docs/study/<rr>/<scene>/
+# every method with NEE, on every pack scene. The methods of a run render side by
+# side (`compare --side-by-side`, an equal share of the cores each), so a shared
+# host's drift cannot favour one of them. Writes docs/study/<rr>/<scene>/
 # (curves.csv, curves.svg, summary.md, images) and docs/study.md with the
 # per-scene summaries and the product/radiance ratios of each roulette.
 # Every number in the page is what the commands below print.
@@ -11,9 +13,9 @@
 #   rebuilt from every scene under docs/study, each stamped with when and
 #   by which commit it ran (docs/study/<rr>/<scene>/RUN), so a subset can be
 #   rerun without losing the others.
-# Needs ../shared/scenes. Takes about SCENES × 5 × RUNS × SECONDS
-# (pt, radiance and product with classic roulette; radiance and product
-# with ADRRS).
+# Needs ../shared/scenes. Takes about SCENES × 2 × RUNS × SECONDS
+# (pt, radiance and product side by side with classic roulette; radiance and
+# product side by side with ADRRS).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SECONDS_PER_RUN=${1:-30}
@@ -40,7 +42,7 @@ for rr in $ROULETTES; do
     echo "study: $rr $scene" >&2
     "$BIN" compare "$PACK/$scene/scene.xml" --reference "$PACK/$scene/reference.exr" \
       --time "$SECONDS_PER_RUN" --runs "$RUNS" --methods "$methods" --nee all \
-      --guided-rr "$rr" --out "$OUT/$rr/$scene" > /dev/null
+      --guided-rr "$rr" --side-by-side --out "$OUT/$rr/$scene" > /dev/null
     echo "\`roulette_study.sh $SECONDS_PER_RUN $RUNS '$scene' $rr\` finished $(date -u '+%Y-%m-%d %H:%M UTC'), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) threads, ltcguide $(git rev-parse --short HEAD 2>/dev/null || echo unknown)" > "$OUT/$rr/$scene/RUN"
   done
 done
@@ -58,8 +60,9 @@ done
     done
   done
   echo
-  echo "Every method uses NEE with MIS; within a part, runs of the methods are interleaved (run 1 of"
-  echo "every method, then run 2, …). Errors are against each scene's Mitsuba 3 \`reference.exr\`."
+  echo "Every method uses NEE with MIS; within a part, the methods of a run render side by side, each"
+  echo "on an equal share of the cores (each scene's summary says how many threads), so the host's"
+  echo "load drifts alike for all of them. Errors are against each scene's Mitsuba 3 \`reference.exr\`."
   echo "The reading is in docs/results-reading.md."
   echo
 } >> "$PAGE"

@@ -60,6 +60,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,
         pixel_reuse: true,
+        side_by_side: false,
         progress: false,
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -137,6 +138,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,
         pixel_reuse: true,
+        side_by_side: false,
         progress: false,
     };
     let wrong = Image {
@@ -199,6 +201,7 @@ fn compare_nee_choice_reaches_every_method() {
             cosine_lobes: CosineLobes::Radiance,
             product_vertices: 1,
             pixel_reuse: true,
+            side_by_side: false,
             progress: false,
         };
         let outcome = run_compare(&scene, &reference, &opts).unwrap();
@@ -211,6 +214,77 @@ fn compare_nee_choice_reaches_every_method() {
         assert!(plans.iter().all(|l| l.contains(expected)), "{plans:?}");
         std::fs::remove_dir_all(&dir).ok();
     }
+}
+
+/// Side by side, the methods of a run render at once on a share of the
+/// threads: every method and run still yields its snapshots and final row,
+/// in method order, and the summary says how the threads were shared.
+#[test]
+fn compare_side_by_side_runs_every_method_and_says_so() {
+    let scene = tiny();
+    let reference = Image {
+        width: 64,
+        height: 64,
+        pixels: vec![glam::Vec3::splat(0.5); 64 * 64],
+    };
+    let dir = std::env::temp_dir().join(format!("ltcguide-compare-sbs-{}", std::process::id()));
+    let opts = CompareOptions {
+        methods: vec![Method::Pt, Method::Radiance, Method::Product],
+        seconds: 0.3,
+        runs: 2,
+        threads: 2,
+        out_dir: dir.clone(),
+        path_for: settings,
+        nee: ltcguide::experiment::compare::NeeChoice::All,
+        guided_roulette: None,
+        cosine_lobes: CosineLobes::Radiance,
+        product_vertices: 1,
+        pixel_reuse: true,
+        side_by_side: true,
+        progress: false,
+    };
+    let outcome = run_compare(&scene, &reference, &opts).unwrap();
+    let order: Vec<(&str, u32)> = outcome
+        .rows
+        .iter()
+        .map(|r| (r.method.as_str(), r.run))
+        .fold(Vec::new(), |mut v, k| {
+            if v.last() != Some(&k) {
+                v.push(k);
+            }
+            v
+        });
+    assert_eq!(
+        order,
+        [
+            ("pt", 0),
+            ("radiance", 0),
+            ("product", 0),
+            ("pt", 1),
+            ("radiance", 1),
+            ("product", 1)
+        ]
+    );
+    for m in ["pt", "radiance", "product"] {
+        for run in 0..2 {
+            let r: Vec<_> = outcome
+                .rows
+                .iter()
+                .filter(|r| r.method == m && r.run == run)
+                .collect();
+            assert!(r.len() >= 2, "{m} run {run}: {} rows", r.len());
+            assert!(r.iter().all(|x| x.spp >= 1 && x.relmse.is_finite()));
+        }
+        assert!(dir.join(format!("{m}.exr")).exists(), "{m}.exr missing");
+    }
+    assert!(
+        outcome
+            .summary
+            .contains("the methods of a run side by side on 1 of 2 threads each"),
+        "{}",
+        outcome.summary
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A window ratio below 1 (or not a number) would make every ADRRS

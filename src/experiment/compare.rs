@@ -38,6 +38,9 @@ pub struct CompareOptions {
     pub product_vertices: u32,
     /// Product guiding's reuse of a pixel's first lobe.
     pub pixel_reuse: bool,
+    /// Render the methods of a run at the same time, each on an equal share
+    /// of the threads, instead of one after the other.
+    pub side_by_side: bool,
     pub progress: bool,
 }
 
@@ -112,31 +115,50 @@ pub fn run_compare(
     // Runs outer, methods inner: a shared machine's load drifts over a
     // study, and interleaving makes every method's runs meet the same drift
     // instead of one method taking the quiet start and another the busy end.
+    // Side by side, the methods of a run also share every moment of it.
     for run in 0..opts.runs {
-        for &method in &opts.methods {
-            let name = method_name(method);
+        let results = if opts.side_by_side {
             if opts.progress {
                 eprintln!(
-                    "compare: {name}, run {} of {}, {:.0} s",
+                    "compare: run {} of {}, {} side by side ({} threads each), {:.0} s",
                     run + 1,
                     opts.runs,
+                    opts.methods.len(),
+                    side_by_side_threads(opts),
                     opts.seconds
                 );
             }
-            let ropts = RenderOptions {
-                method,
-                budget: Budget::Seconds(opts.seconds),
-                seed: 1000 + run as u64,
-                threads: opts.threads,
-                path: path_settings(scene, method, opts),
-                progress: opts.progress,
-                snapshot_times: snapshot_times(opts.seconds),
-                cosine_lobes: opts.cosine_lobes,
-                product_vertices: opts.product_vertices,
-                pixel_reuse: opts.pixel_reuse,
-                ..Default::default()
-            };
-            let result = render(scene, &ropts)?;
+            std::thread::scope(|s| {
+                let handles: Vec<_> = opts
+                    .methods
+                    .iter()
+                    .map(|&m| s.spawn(move || render(scene, &run_options(scene, m, run, opts))))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|_| Err("a render panicked".into())))
+                    .collect::<Vec<_>>()
+            })
+        } else {
+            opts.methods
+                .iter()
+                .map(|&m| {
+                    if opts.progress {
+                        eprintln!(
+                            "compare: {}, run {} of {}, {:.0} s",
+                            method_name(m),
+                            run + 1,
+                            opts.runs,
+                            opts.seconds
+                        );
+                    }
+                    render(scene, &run_options(scene, m, run, opts))
+                })
+                .collect()
+        };
+        for (&method, result) in opts.methods.iter().zip(results) {
+            let result = result?;
+            let name = method_name(method);
             for s in &result.snapshots {
                 rows.push(CurveRow {
                     method: name.clone(),
@@ -182,6 +204,43 @@ pub fn run_compare(
         curves,
         summary,
     })
+}
+
+/// Each method's render options in run `run` (seed 1000 + run).
+fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -> RenderOptions {
+    RenderOptions {
+        method,
+        budget: Budget::Seconds(opts.seconds),
+        seed: 1000 + run as u64,
+        threads: if opts.side_by_side {
+            side_by_side_threads(opts)
+        } else {
+            opts.threads
+        },
+        path: path_settings(scene, method, opts),
+        // Concurrent bars would overwrite each other.
+        progress: opts.progress && !opts.side_by_side,
+        snapshot_times: snapshot_times(opts.seconds),
+        cosine_lobes: opts.cosine_lobes,
+        product_vertices: opts.product_vertices,
+        pixel_reuse: opts.pixel_reuse,
+        ..Default::default()
+    }
+}
+
+/// The comparison's threads (0: every core).
+fn total_threads(opts: &CompareOptions) -> usize {
+    if opts.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        opts.threads
+    }
+}
+
+/// Side by side, each method gets an equal share of the threads, at least
+/// one (more methods than cores share the cores through the OS scheduler).
+fn side_by_side_threads(opts: &CompareOptions) -> usize {
+    (total_threads(opts) / opts.methods.len().max(1)).max(1)
 }
 
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
@@ -243,15 +302,22 @@ fn summary_markdown(
     notes: &[String],
 ) -> String {
     let mut s = String::new();
-    let threads = if opts.threads == 0 {
-        rayon::current_num_threads()
+    let threads = if opts.side_by_side {
+        format!(
+            "the methods of a run side by side on {} of {} threads each",
+            side_by_side_threads(opts),
+            total_threads(opts)
+        )
     } else {
-        opts.threads
+        format!(
+            "{} threads, methods one after the other",
+            total_threads(opts)
+        )
     };
     let _ = writeln!(s, "# {}: equal-time comparison\n", scene.name);
     let _ = writeln!(
         s,
-        "Budget {:.1} s per run (training included), {} runs per method (seeds 1000…), {} threads, {}.\n",
+        "Budget {:.1} s per run (training included), {} runs per method (seeds 1000…), {}, {}.\n",
         opts.seconds,
         opts.runs,
         threads,
