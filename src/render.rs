@@ -167,9 +167,7 @@ impl PassPacer {
     /// known, for calls whose size matters (the weights trial).
     pub fn bound_by_deadline(&self, n: u64, now: f64, deadline: Option<f64>) -> u64 {
         match (deadline, self.seconds_per_pass) {
-            (Some(end), Some(s)) if s > 0.0 => {
-                n.min(((0.5 * (end - now) / s).max(0.0)) as u64).max(1)
-            }
+            (Some(end), Some(s)) if s > 0.0 => half_of(n, end - now, s),
             _ => n,
         }
     }
@@ -190,7 +188,7 @@ impl PassPacer {
         let next = [deadline, snapshots.next_time()].into_iter().flatten();
         if let Some(t) = next.map(|t| t - now).reduce(f64::min) {
             n = match self.seconds_per_pass {
-                Some(s) if s > 0.0 && t.is_finite() => n.min((0.5 * t / s).max(0.0) as u64),
+                Some(s) if s > 0.0 && t.is_finite() => half_of(n, t, s),
                 _ => 1,
             };
         }
@@ -201,6 +199,13 @@ impl PassPacer {
     pub fn called(&mut self, passes: u64, seconds: f64) {
         self.seconds_per_pass = Some(seconds / passes as f64);
     }
+}
+
+/// At most `n` passes, and no more than fit in half of `seconds_left` at
+/// `seconds_per_pass` (at least one).
+fn half_of(n: u64, seconds_left: f64, seconds_per_pass: f64) -> u64 {
+    n.min((0.5 * seconds_left / seconds_per_pass).max(0.0) as u64)
+        .max(1)
 }
 
 #[derive(Clone, Debug)]

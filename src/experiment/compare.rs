@@ -120,11 +120,12 @@ pub fn run_compare(
         let results = if opts.side_by_side {
             if opts.progress {
                 eprintln!(
-                    "compare: run {} of {}, {} side by side ({} threads each), {:.0} s",
+                    "compare: run {} of {}, {} methods side by side, each on {} of {} threads, {:.0} s",
                     run + 1,
                     opts.runs,
                     opts.methods.len(),
                     side_by_side_threads(opts),
+                    total_threads(opts),
                     opts.seconds
                 );
             }
