@@ -345,18 +345,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         std::fs::create_dir_all(dir)
             .map_err(|e| format!("cannot create '{}': {e}", dir.display()))?;
     }
-    eprintln!(
-        "{}",
-        ltcguide::plan::plan(
-            &scene,
-            opts.method,
-            opts.path.nee,
-            opts.cosine_lobes,
-            opts.product_vertices,
-            opts.pixel_reuse,
-        )
-        .line()
-    );
+    eprintln!("{}", ltcguide::render::run_plan(&scene, &opts).line());
     let result = render(&scene, &opts)?;
     write_rgb(
         &args.out,

@@ -368,9 +368,9 @@ fn process_cpu_seconds() -> f64 {
     ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
-pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
-    let pool = thread_pool(opts.threads)?;
-    let threads = pool.current_num_threads();
+/// The plan a run with `opts` follows: the per-scene plan, or with
+/// `use_plan` off every part of the requested method.
+pub fn run_plan(scene: &Scene, opts: &RenderOptions) -> crate::plan::ScenePlan {
     let mut plan = crate::plan::plan(
         scene,
         opts.method,
@@ -384,6 +384,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         plan.guiding = opts.method != Method::Pt;
         plan.reasons = vec!["plan disabled".into()];
     }
+    plan
+}
+
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
+    let pool = thread_pool(opts.threads)?;
+    let threads = pool.current_num_threads();
+    let plan = run_plan(scene, opts);
     let ltc_guards_before = crate::ltc::nonfinite_guard_count();
     let cpu_before = process_cpu_seconds();
     let mut clock = RenderClock::start();
