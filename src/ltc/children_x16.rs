@@ -18,12 +18,10 @@ use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::level1::level1_children_x16;
 use super::polygon::cached_cell_polygon;
 use super::quad_x16::quad_children_x16;
-use super::simd::{
-    edge_vectors, heights_and_radii, load16, rotated_sincos, sincos_turns, splat, transform,
-};
+use super::simd::{edge_vectors, load16, sincos_turns, splat};
 use crate::directional::Cell;
 use glam::Vec3;
-use wide::f32x16;
+use wide::{f32x4, f32x16, i32x4};
 
 /// `ez[j]` = (θ·(a×b)/|a×b|)_z of the edge (P[j], P[j+1]), j < m, of a
 /// polygon in structure-of-arrays form, 16 edges at a time, with the scalar
@@ -109,31 +107,41 @@ pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> O
     }))
 }
 
-/// D(centre)·Ω for the 4 children in lanes 0..4, with the scalar
-/// [`GlossyLtc::children_deep`]'s operations.
-pub fn children_deep_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
+/// D(centre)·Ω for the 4 children, one per lane of an f32x4, with the
+/// scalar [`GlossyLtc::children_deep`]'s operations. Four lanes, not
+/// sixteen: the square root and the division dominate, and on 512-bit
+/// registers they cost twice the latency for twelve unused lanes.
+pub fn children_deep_x4(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     // The scalar `child_centre_directions`, lane by lane: child k = (k & 1, k >> 1),
     // height by the u bit, azimuth side by the v bit.
-    const HEIGHT: [f32; 16] = [
-        1., 3., 1., 3., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1., 1.,
-    ];
-    const SIDE: [f32; 16] = [
-        -1., -1., 1., 1., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0., 0.,
-    ];
+    let height = f32x4::from([1.0, 3.0, 1.0, 3.0]);
+    let side = f32x4::from([-1.0, -1.0, 1.0, 1.0]);
+    let s4 = f32x4::splat;
     let h = 1.0 / (1u64 << (cell.depth + 2)) as f32;
-    let (z, r) = heights_and_radii(4 * cell.ix, h, f32x16::from(HEIGHT));
-    let (s, c) = rotated_sincos(
-        dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1),
-        step_sincos(cell.depth + 2),
-        f32x16::from(SIDE),
+    // As in `heights_and_radii`: converted lane-wise (no stale-register
+    // dependency between calls), exact below 2^24.
+    let u = i32x4::splat((4 * cell.ix) as i32).round_float();
+    let z = ((u + height) * s4(h)).mul_add(s4(2.0), s4(-1.0));
+    let r = ((s4(1.0) - z) * (s4(1.0) + z)).sqrt();
+    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
+    let (ss, cs) = step_sincos(cell.depth + 2);
+    let ss_l = side * s4(ss);
+    let (s1, c1) = (s4(s1), s4(c1));
+    let (s, c) = (
+        s1.mul_add(s4(cs), c1 * ss_l),
+        c1.mul_add(s4(cs), -(s1 * ss_l)),
     );
-    let p = transform(&g.rows, r * c, r * s, z);
+    let (x, y) = (r * c, r * s);
+    let row = |i: usize| {
+        let m = &g.rows[i];
+        s4(m[2]).mul_add(z, s4(m[1]).mul_add(y, s4(m[0]) * x))
+    };
+    let p = [row(0), row(1), row(2)];
     let l2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-    let d = p[2].fast_max(splat(0.0)) * splat(g.det_abs) / (splat(std::f32::consts::PI) * l2 * l2);
-    let ok = l2.simd_gt(splat(0.0));
+    let d = p[2].fast_max(s4(0.0)) * s4(g.det_abs) / (s4(std::f32::consts::PI) * l2 * l2);
+    let ok = l2.simd_gt(s4(0.0));
     let omega = cell_solid_angle(cell.depth + 1);
-    let out = (ok.bitselect(d, splat(0.0)) * splat(omega)).to_array();
-    [out[0], out[1], out[2], out[3]]
+    (ok.bitselect(d, s4(0.0)) * s4(omega)).to_array()
 }
 
 /// Cosine-lobe integrals of the 4 children of a node at depth ≥ 5, lanes
@@ -186,7 +194,7 @@ pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
             .unwrap_or_else(|| g.children_exact_f32(cell));
     }
     if depth >= deep_depth {
-        return children_deep_x16(g, cell);
+        return children_deep_x4(g, cell);
     }
     if depth >= g.plain_quad_depth {
         quad_children_x16(g, cell)

@@ -94,7 +94,7 @@ const START_HEIGHT_INDEX: [i32; 16] = {
 /// Per child depth, the lane constants that only depend on the depth: the
 /// rotation of each lane's azimuth from the node's centre meridian, cos
 /// (exactly 1 on the centre) and sin (side × sin of a child's width), as
-/// [`super::simd::rotated_sincos`] forms them, and 2h·j of the grid heights
+/// [`super::quad::node_grid`] forms them, and 2h·j of the grid heights
 /// j = 0, 1, 2 (h the child's height in u) with 4h, the node's height.
 /// Loaded rather than formed, they cost no issue slots.
 struct DepthLanes {

@@ -167,23 +167,6 @@ pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
     }
 }
 
-/// sin and cos of azimuths one step either side of a centre (s1, c1), per
-/// lane by `side` ∈ {−1, 0, 1}: the operations of [`super::quad::node_grid`]
-/// (a rotation by the step (ss, cs), exact at side 0), without going
-/// through scalar lanes.
-#[inline(always)]
-pub fn rotated_sincos(
-    (s1, c1): (f32, f32),
-    (ss, cs): (f32, f32),
-    side: f32x16,
-) -> (f32x16, f32x16) {
-    let centre = side.simd_eq(splat(0.0));
-    let cs_l = centre.bitselect(splat(1.0), splat(cs));
-    let ss_l = side * splat(ss);
-    let (s1, c1) = (splat(s1), splat(c1));
-    (s1.mul_add(cs_l, c1 * ss_l), c1.mul_add(cs_l, -(s1 * ss_l)))
-}
-
 /// Heights ((u + i)·h)·2 − 1 and radii √((1 − z)(1 + z)) per lane, with
 /// the operations of [`super::children::child_grid`] and the grid radii.
 /// `u` (< 2^24, so exact in f32) is converted lane-wise: a scalar
