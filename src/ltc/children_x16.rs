@@ -109,8 +109,9 @@ pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> O
 
 /// D(centre)·Ω for the 4 children, one per lane of an f32x4, with the
 /// scalar [`GlossyLtc::children_deep`]'s operations. Four lanes, not
-/// sixteen: the square root and the division dominate, and on 512-bit
-/// registers they cost twice the latency for twelve unused lanes.
+/// sixteen: the call is one chain through a square root and a division,
+/// and with twelve idle lanes on 512-bit registers it took 12.5 ns
+/// against 9.0 ns on 128-bit ones (same process, levels 6–20).
 pub fn children_deep_x4(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     // The scalar `child_centre_directions`, lane by lane: child k = (k & 1, k >> 1),
     // height by the u bit, azimuth side by the v bit.
@@ -132,6 +133,7 @@ pub fn children_deep_x4(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
         c1.mul_add(s4(cs), -(s1 * ss_l)),
     );
     let (x, y) = (r * c, r * s);
+    // `simd::transform`'s operations, on four lanes.
     let row = |i: usize| {
         let m = &g.rows[i];
         s4(m[2]).mul_add(z, s4(m[1]).mul_add(y, s4(m[0]) * x))
