@@ -31,6 +31,36 @@ fn tiny() -> Scene {
     .unwrap()
 }
 
+/// The options every test starts from: `methods` for one run of 0.2 s
+/// into `out_dir`, the paper's NEE choice, no roulette override, product
+/// guiding's defaults, methods one after the other, no progress.
+fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
+    CompareOptions {
+        methods,
+        seconds: 0.2,
+        runs: 1,
+        threads: 0,
+        out_dir: out_dir.to_path_buf(),
+        path_for: settings,
+        nee: ltcguide::experiment::compare::NeeChoice::Paper,
+        guided_roulette: None,
+        cosine_lobes: CosineLobes::Radiance,
+        product_vertices: 1,
+        pixel_reuse: true,
+        side_by_side: false,
+        progress: false,
+    }
+}
+
+/// A uniform 64×64 reference, the tiny scene's size.
+fn flat_reference() -> Image {
+    Image {
+        width: 64,
+        height: 64,
+        pixels: vec![glam::Vec3::splat(0.5); 64 * 64],
+    }
+}
+
 #[test]
 fn compare_writes_well_formed_csv_svg_and_summary() {
     let scene = tiny();
@@ -49,19 +79,10 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     let dir = std::env::temp_dir().join(format!("ltcguide-compare-{}", std::process::id()));
     let methods = vec![Method::Pt, Method::Radiance, Method::Product];
     let opts = CompareOptions {
-        methods: methods.clone(),
         seconds: 0.6,
         runs: 2,
-        threads: 0,
-        out_dir: dir.clone(),
-        path_for: settings,
-        nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: Some((RouletteMode::Off, 5.0)),
-        cosine_lobes: CosineLobes::Radiance,
-        product_vertices: 1,
-        pixel_reuse: true,
-        side_by_side: false,
-        progress: false,
+        ..compare_options(methods.clone(), &dir)
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
     let csv = std::fs::read_to_string(dir.join("curves.csv")).unwrap();
@@ -127,19 +148,8 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
     let scene = tiny();
     let dir = std::env::temp_dir().join(format!("ltcguide-compare-bad-{}", std::process::id()));
     let opts = CompareOptions {
-        methods: vec![Method::Pt],
         seconds: 0.1,
-        runs: 1,
-        threads: 0,
-        out_dir: dir.clone(),
-        path_for: settings,
-        nee: ltcguide::experiment::compare::NeeChoice::Paper,
-        guided_roulette: None,
-        cosine_lobes: CosineLobes::Radiance,
-        product_vertices: 1,
-        pixel_reuse: true,
-        side_by_side: false,
-        progress: false,
+        ..compare_options(vec![Method::Pt], &dir)
     };
     let wrong = Image {
         width: 10,
@@ -176,11 +186,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
 #[test]
 fn compare_nee_choice_reaches_every_method() {
     let scene = tiny();
-    let reference = Image {
-        width: 64,
-        height: 64,
-        pixels: vec![glam::Vec3::splat(0.5); 64 * 64],
-    };
+    let reference = flat_reference();
     for (choice, expected) in [
         (ltcguide::experiment::compare::NeeChoice::All, "nee on"),
         (ltcguide::experiment::compare::NeeChoice::None, "nee off"),
@@ -190,19 +196,8 @@ fn compare_nee_choice_reaches_every_method() {
             std::process::id()
         ));
         let opts = CompareOptions {
-            methods: vec![Method::Pt, Method::Radiance],
-            seconds: 0.2,
-            runs: 1,
-            threads: 0,
-            out_dir: dir.clone(),
-            path_for: settings,
             nee: choice,
-            guided_roulette: None,
-            cosine_lobes: CosineLobes::Radiance,
-            product_vertices: 1,
-            pixel_reuse: true,
-            side_by_side: false,
-            progress: false,
+            ..compare_options(vec![Method::Pt, Method::Radiance], &dir)
         };
         let outcome = run_compare(&scene, &reference, &opts).unwrap();
         let plans: Vec<&str> = outcome
@@ -222,26 +217,16 @@ fn compare_nee_choice_reaches_every_method() {
 #[test]
 fn compare_side_by_side_runs_every_method_and_says_so() {
     let scene = tiny();
-    let reference = Image {
-        width: 64,
-        height: 64,
-        pixels: vec![glam::Vec3::splat(0.5); 64 * 64],
-    };
+    let reference = flat_reference();
     let dir = std::env::temp_dir().join(format!("ltcguide-compare-sbs-{}", std::process::id()));
+    let methods = vec![Method::Pt, Method::Radiance, Method::Product];
     let opts = CompareOptions {
-        methods: vec![Method::Pt, Method::Radiance, Method::Product],
         seconds: 0.3,
         runs: 2,
         threads: 2,
-        out_dir: dir.clone(),
-        path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::All,
-        guided_roulette: None,
-        cosine_lobes: CosineLobes::Radiance,
-        product_vertices: 1,
-        pixel_reuse: true,
         side_by_side: true,
-        progress: false,
+        ..compare_options(methods, &dir)
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
     let order: Vec<(&str, u32)> = outcome

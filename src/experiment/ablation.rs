@@ -41,12 +41,8 @@ pub fn run_ablation(
     path: PathSettings,
     progress: bool,
 ) -> Result<AblationOutcome, String> {
-    let run = |method: Method,
-               kernel: ProductKernel,
-               use_plan: bool,
-               paper: bool|
-     -> Result<AblationRow, String> {
-        let opts = RenderOptions {
+    let options = |method: Method, kernel: ProductKernel, use_plan: bool, paper: bool| {
+        RenderOptions {
             method,
             budget: Budget::Spp(spp),
             seed: 1,
@@ -69,8 +65,14 @@ pub fn run_ablation(
             pixel_reuse: !paper,
             use_plan,
             ..Default::default()
-        };
-        let r = render(scene, &opts)?;
+        }
+    };
+    let run = |method: Method,
+               kernel: ProductKernel,
+               use_plan: bool,
+               paper: bool|
+     -> Result<AblationRow, String> {
+        let r = render(scene, &options(method, kernel, use_plan, paper))?;
         Ok(AblationRow {
             variant: String::new(),
             seconds: r.stats.seconds,
@@ -109,13 +111,10 @@ pub fn run_ablation(
         row.variant = name.to_string();
         plan.push(row);
     }
-    let plan_line = crate::plan::plan(
+    // The plan the "per-scene plan" row followed.
+    let plan_line = crate::render::run_plan(
         scene,
-        Method::Product,
-        path.nee,
-        CosineLobes::Radiance,
-        crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
-        true,
+        &options(Method::Product, ProductKernel::Simd, true, false),
     )
     .line();
     let naive = kernels[0].seconds.max(1e-9);
