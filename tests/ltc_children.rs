@@ -4,9 +4,9 @@
 
 mod ltc_common;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use ltc_common::*;
-use ltcguide::directional::Cell;
+use ltcguide::directional::{Cell, square_to_dir};
 use ltcguide::ltc::children::{LtcOptions, ProductKernel, ShadingLtc, nonfinite_guard_count};
 use ltcguide::ltc::children_x16;
 use ltcguide::math::Frame;
@@ -187,6 +187,53 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
         }
     }
     println!("x16 vs scalar: {compared} lanes, worst relative difference {worst:.2e}");
+}
+
+/// The wide diffuse kernel (depth ≥ 5: Gauss form factors, F·n or the
+/// sphere clip) against the scalar route, bit for bit, along descents
+/// into the horizon (every child straddles it), into the poles (the rows
+/// that keep the f64 form factors) and into random directions.
+#[test]
+fn wide_diffuse_kernel_equals_scalar_lane_for_lane() {
+    let mut rng = Rng::new(77, 4);
+    let opts = LtcOptions::default();
+    let mut compared = 0usize;
+    let mut straddling = 0usize;
+    for trial in 0..200 {
+        let frame = random_frame(&mut rng);
+        let s = shading(None, 30.0, &frame, &opts);
+        let n = frame.n.as_dvec3();
+        let tangent = frame.s.as_dvec3();
+        let pole = DVec3::new(0.0, 0.0, if trial % 2 == 0 { 1.0 } else { -1.0 });
+        let random = random_frame(&mut rng).n.as_dvec3();
+        for target in [tangent, (tangent + 1e-4 * n).normalize(), pole, random] {
+            for depth in 5..22u32 {
+                let cell = path(target, depth);
+                let a = s.child_integrals(cell, ProductKernel::Optimized);
+                let b = s.child_integrals(cell, ProductKernel::Simd);
+                for k in 0..4 {
+                    assert!(
+                        a[k] == b[k],
+                        "trial {trial} depth {depth} child {k}: scalar {} x4 {}",
+                        a[k],
+                        b[k]
+                    );
+                    let child = cell.child(k);
+                    let (u0, v0, size) = child.square_bounds();
+                    let centre = square_to_dir(Vec2::new(
+                        (u0 + 0.5 * size) as f32,
+                        (v0 + 0.5 * size) as f32,
+                    ));
+                    // Within a cell's radius of the horizon.
+                    let radius = (child.solid_angle() / std::f64::consts::PI).sqrt();
+                    straddling += (centre.as_dvec3().dot(n).abs() < radius) as usize;
+                    compared += 1;
+                }
+            }
+        }
+    }
+    println!("diffuse x4 vs scalar: {compared} lanes, {straddling} next to the horizon");
+    assert!(straddling > compared / 10, "{straddling} of {compared}");
 }
 
 #[test]

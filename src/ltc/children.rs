@@ -291,17 +291,27 @@ impl GlossyLtc {
 pub fn child_centre_directions(cell: Cell) -> [Vec3; 4] {
     let (z, _) = child_centres(cell);
     let r = z.map(|z| ((1.0 - z) * (1.0 + z)).max(0.0).sqrt());
-    // The node's centre meridian rotated by half a child's width either
-    // way, as in `quad::node_grid`.
-    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
-    let (ss, cs) = step_sincos(cell.depth + 2);
-    let s = [s1.mul_add(cs, -(c1 * ss)), s1.mul_add(cs, c1 * ss)];
-    let c = [c1.mul_add(cs, s1 * ss), c1.mul_add(cs, -(s1 * ss))];
+    let (s, c) = child_centre_sincos(cell);
     // Height by the u bit (k & 1), azimuth by the v bit (k >> 1).
     std::array::from_fn(|k| {
         let (iu, iv) = (k & 1, k >> 1);
         Vec3::new(r[iu] * c[iv], r[iu] * s[iv], z[iu])
     })
+}
+
+/// sin and cos of the children's centre azimuths (by the v bit): the
+/// node's centre meridian rotated by half a child's width either way, as in
+/// `quad::node_grid` — two table reads and four products, where a sine
+/// polynomial would put ~8 dependent FMAs on every deep call's path. The
+/// wide twin is `children_x16::centre_sincos_x4`.
+#[inline]
+pub fn child_centre_sincos(cell: Cell) -> ([f32; 2], [f32; 2]) {
+    let (s1, c1) = dyadic_sincos(2 * cell.iy as u64 + 1, cell.depth + 1);
+    let (ss, cs) = step_sincos(cell.depth + 2);
+    (
+        [s1.mul_add(cs, -(c1 * ss)), s1.mul_add(cs, c1 * ss)],
+        [c1.mul_add(cs, s1 * ss), c1.mul_add(cs, -(s1 * ss))],
+    )
 }
 
 /// Exactly clipped integrals of the 4 children under the map `rows`, in f32.
@@ -519,7 +529,7 @@ impl ShadingLtc {
                 _ if cell.depth < EXACT_CLIP_DEPTH => self.diffuse_root_children(kernel),
                 _ if cell.depth + 1 >= self.diffuse_centre_depth => self.diffuse_centres(cell),
                 ProductKernel::Simd if cell.depth >= EXACT_CROSSING_DEPTH => {
-                    children_x16::diffuse_children_x16(self.normal, cell)
+                    children_x16::diffuse_children_x4(self.normal, cell)
                 }
                 _ => self.diffuse_form_factors(cell),
             };

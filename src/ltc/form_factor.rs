@@ -80,39 +80,50 @@ pub fn form_factor(cell: Cell) -> Vec3 {
     }
 }
 
+/// Whether a node's children lie in the two rows next to a pole (the node
+/// itself in the first or last row), where the two-point rule of
+/// [`children_form_factors_f32`] gives way to the f64 closed form.
+#[inline]
+pub fn next_to_pole(cell: Cell) -> bool {
+    cell.ix == 0 || cell.ix as u64 == (1u64 << cell.depth) - 1
+}
+
+/// The per-depth constants of [`children_form_factors_f32`]: a child's
+/// height Δz, the Gauss nodes' offset from its centre, and
+/// 2·sin(Δφ/2)/π, the azimuthal factor of F_x, F_y. Δφ/2 = π·h is a
+/// quarter of the node's width, so its sine is the node's table entry
+/// (no polynomial, no division on the kernels' path).
+#[inline(always)]
+pub fn gauss_constants(cell: Cell) -> (f32, f32, f32) {
+    let dz = 2.0 / (1u64 << (cell.depth + 1)) as f32;
+    let (sin_half_width, _) = super::fast_math::step_sincos(cell.depth + 2);
+    (
+        dz,
+        dz * (0.5 / 3f32.sqrt()),
+        sin_half_width * (2.0 * std::f32::consts::FRAC_1_PI),
+    )
+}
+
 /// F of the 4 children of a node below the precomputed levels, in f32:
 /// exact in φ, two-point Gauss–Legendre in z. The rule's relative error is
 /// ≲ (Δz/h)⁴/4320 at distance h from a pole, so the two rows next to each
 /// pole keep the f64 closed form. No term cancels, so depth 20 is as
-/// accurate as depth 6.
+/// accurate as depth 6. The wide kernel
+/// ([`super::children_x16::diffuse_children_x4`]) repeats these operations
+/// lane by lane.
 pub fn children_form_factors_f32(cell: Cell) -> [Vec3; 4] {
-    use super::polygon::sincos_turns;
-    let n_child = 1u64 << (cell.depth + 1);
-    let h = 1.0 / n_child as f32;
-    let dz = 2.0 * h;
-    // Child centres: z by the u bit, azimuth (turns) by the v bit.
-    let (zc, vc) = super::children::child_centres(cell);
-    let off = dz * (0.5 / 3f32.sqrt());
+    if next_to_pole(cell) {
+        return std::array::from_fn(|k| cell_form_factor(cell.child(k)).as_vec3());
+    }
+    let (dz, off, k2_scale) = gauss_constants(cell);
+    // Child centres: heights by the u bit, azimuths by the v bit.
+    let (zc, _) = super::children::child_centres(cell);
     let f = |z: f32| (1.0 - z * z).max(0.0).sqrt();
-    let g = zc.map(|z| 0.5 * dz * (f(z - off) + f(z + off)));
-    // sin(Δφ/2) with Δφ/2 = π·h ≤ π/64: three Taylor terms are exact in f32.
-    let x = std::f32::consts::PI * h;
-    let x2 = x * x;
-    let sh = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0));
-    let sc = vc.map(sincos_turns);
-    let inv_pi = std::f32::consts::FRAC_1_PI;
+    let k2 = zc.map(|z| (0.5 * dz) * (f(z - off) + f(z + off)) * k2_scale);
+    let (s, c) = super::children::child_centre_sincos(cell);
     std::array::from_fn(|k| {
-        let child = cell.child(k);
-        if child.ix < 2 || child.ix as u64 >= n_child - 2 {
-            return cell_form_factor(child).as_vec3();
-        }
         let (iu, iv) = (k & 1, k >> 1);
-        let (s, c) = sc[iv];
-        Vec3::new(
-            2.0 * g[iu] * sh * c * inv_pi,
-            2.0 * g[iu] * sh * s * inv_pi,
-            2.0 * h * dz * zc[iu],
-        )
+        Vec3::new(k2[iu] * c[iv], k2[iu] * s[iv], (dz * dz) * zc[iu])
     })
 }
 
