@@ -168,6 +168,14 @@ fn product_with_lobe_reuse_gives_a_fixed_image_whatever_the_thread_count() {
         ca.product_lobes_reused,
         ca.product_lobes_built
     );
+    // Directions drawn from the guide are counted, and those that fell
+    // below the shading point's horizon are a part of them.
+    assert!(
+        ca.guided_samples > 1000 && ca.guided_below_horizon < ca.guided_samples,
+        "{} guided, {} below the horizon",
+        ca.guided_samples,
+        ca.guided_below_horizon
+    );
     let (off, coff) = run(2, false);
     assert_eq!(coff.product_lobes_reused, 0);
     assert!(coff.product_lobes_built == 0 && a != off, "{coff:?}");

@@ -274,6 +274,7 @@ pub fn trace_path<G: Guide>(
         match guide_vertex.as_mut() {
             Some(g) if u_choice >= g.bsdf_fraction() => {
                 let a = g.bsdf_fraction();
+                counters.guided_samples += 1;
                 let Some((dir, pg)) = g.sample(u_dir) else {
                     counters.invalid_scattering += 1;
                     break;

@@ -12,6 +12,8 @@ pub struct RenderCounters {
     pub nonfinite_samples: u64,
     /// BSDF or guide samples with a non-finite or non-positive pdf/weight.
     pub invalid_scattering: u64,
+    /// Directions drawn from the guide (not the BSDF).
+    pub guided_samples: u64,
     /// Guided samples whose direction fell on the wrong side of the surface.
     pub guided_below_horizon: u64,
     /// First vertices whose product lobe was reused from an earlier path of
@@ -33,6 +35,7 @@ impl RenderCounters {
         self.shadow_rays += o.shadow_rays;
         self.nonfinite_samples += o.nonfinite_samples;
         self.invalid_scattering += o.invalid_scattering;
+        self.guided_samples += o.guided_samples;
         self.guided_below_horizon += o.guided_below_horizon;
         self.product_lobes_reused += o.product_lobes_reused;
         self.product_lobes_built += o.product_lobes_built;
