@@ -214,6 +214,28 @@ impl From<KernelArg> for ProductKernel {
 /// Bad input (scene, image, arguments): exit code 2, like clap's own errors.
 const EXIT_BAD_INPUT: u8 = 2;
 
+/// Keeps memory the renderer frees for its next allocations instead of
+/// returning it to the system. Each guided training iteration allocates
+/// hundreds of MB of path records and per-leaf work and frees them;
+/// glibc's dynamic thresholds handed such blocks back (munmap, heap
+/// trimming), and the next iteration faulted them in and zeroed them
+/// again. Blocks under 32 MiB (the largest threshold glibc accepts) now
+/// come from the heap, which is never trimmed. Measured on staircase
+/// (radiance guiding, 16 spp, one thread): system time 0.47–0.79 s →
+/// 0.29–0.35 s (a path tracer's: 0.16 s), CPU time 3–7 % lower side by
+/// side; the peak is reached either way (two threads: 0.77–0.80 →
+/// 0.85 GB, each thread's heap keeping its own).
+fn keep_freed_memory() {
+    // SAFETY: mallopt only sets allocator parameters; it is called before
+    // any thread starts. The return values (0 on failure) only mean that
+    // the defaults stay, which is correct, only slower.
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX);
+    }
+}
+
 fn main() -> ExitCode {
     // Output piped into `head` and the like: end quietly when the reader
     // closes the pipe, as Unix tools do, instead of panicking in println!.
@@ -221,6 +243,7 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    keep_freed_memory();
     let cli = Cli::parse();
     // No subcommand: render the default scene with default settings.
     let command = cli

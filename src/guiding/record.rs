@@ -156,11 +156,10 @@ struct LeafWork {
 /// caller may reuse their allocations.
 pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
     let mut stats = RecordStats::default();
-    let records: Vec<&Record> = buffers.iter().flat_map(|b| b.records.iter()).collect();
     let mut work: Vec<LeafWork> = (0..tree.leaves().len())
         .map(|_| LeafWork::default())
         .collect();
-    for r in &records {
+    for r in buffers.iter().flat_map(|b| b.records.iter()) {
         match validate(r) {
             Err(RecordReject::NonFinite) => stats.rejected_non_finite += 1,
             Err(RecordReject::ZeroPdf) => stats.rejected_zero_pdf += 1,
