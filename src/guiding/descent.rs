@@ -121,7 +121,13 @@ fn sanitize(w: [f32; 4]) -> Option<([f32; 4], f32)> {
 
 /// The weights used at one node, with their total, and the root total to
 /// report. `None` only at the root.
-#[inline]
+///
+/// Always inlined: with product weights the compiler had kept it a call
+/// per level, its result returned through memory and the caller's
+/// registers saved around it; inlined, product-guided renders of staircase
+/// take 2–4 % less CPU time (identical images; radiance weights were
+/// inlined already).
+#[inline(always)]
 fn resolve<W: ChildWeights>(
     weights: &mut W,
     cell: Cell,
