@@ -72,7 +72,7 @@ struct ProductArgs {
     /// in the paper. By default a pixel's paths reuse the first vertex's
     /// lobe and its child integrals while it matches theirs (same lobes
     /// within 30 %, normal and ω_o within α/10); product then runs at
-    /// 0.80–0.90× radiance guiding's spp/s on staircase, about 0.85× on
+    /// 0.81–0.89× radiance guiding's spp/s on staircase, about 0.85× on
     /// average (docs/results-reading.md).
     #[arg(long)]
     no_pixel_reuse: bool,
