@@ -138,6 +138,12 @@ impl RecordBuffer {
     }
 }
 
+/// Memory a record takes while a training call holds it: itself in its
+/// thread's buffer, then its splat and Adam sample in [`record_pass`]'s
+/// per-leaf work.
+pub const RECORD_BYTES: u64 =
+    (size_of::<Record>() + size_of::<(Vec2, f32)>() + size_of::<AdamSample>()) as u64;
+
 /// One Adam sample: (pass, [F/p, p_bsdf, p_guide, α used]).
 type AdamSample = (u64, [f32; 4]);
 
