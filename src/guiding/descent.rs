@@ -125,7 +125,8 @@ fn sanitize(w: [f32; 4]) -> Option<([f32; 4], f32)> {
 /// Always inlined: with product weights the compiler had kept it a call
 /// per level, its result returned through memory and the caller's
 /// registers saved around it; inlined, product-guided renders of staircase
-/// take 2–4 % less CPU time (identical images; radiance weights were
+/// take 4 % (without NEE) and 1.6 % (with NEE) less CPU time, on average
+/// over 6 side-by-side runs each (identical images; radiance weights were
 /// inlined already).
 #[inline(always)]
 fn resolve<W: ChildWeights>(

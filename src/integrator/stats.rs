@@ -12,7 +12,8 @@ pub struct RenderCounters {
     pub nonfinite_samples: u64,
     /// BSDF or guide samples with a non-finite or non-positive pdf/weight.
     pub invalid_scattering: u64,
-    /// Directions drawn from the guide (not the BSDF).
+    /// Times the guide (not the BSDF) was asked for a direction; one that
+    /// could not be drawn also counts in `invalid_scattering`.
     pub guided_samples: u64,
     /// Guided samples whose direction fell on the wrong side of the surface.
     pub guided_below_horizon: u64,
