@@ -4,7 +4,7 @@
 //! combination of the iterations' images.
 
 use super::guide::{SdGuide, WeightModel};
-use super::record::{RECORD_BYTES, RecordStats, record_pass};
+use super::record::{RecordStats, passes_within_record_budget, record_pass};
 use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
 use super::sdtree::{SdTree, SdTreeConfig};
 use crate::film::image::{Film, Image};
@@ -20,38 +20,6 @@ use serde::Serialize;
 /// The guide-vs-unguided efficiency check runs after this training
 /// iteration (2^k spp): earlier, the guide has seen too few paths to judge it.
 const FALLBACK_CHECK_ITERATION: u32 = 4;
-
-/// Memory the path records of one training call may fill (the buffers'
-/// capacity, grown by doubling, may reach twice that). A call renders up
-/// to 16 passes and holds all their records until it ends: 108 bytes per
-/// recorded vertex (staircase at 360×640: 87 MB a pass), so at 1920×1080 a
-/// 16-pass call would have held some 12 GB, and more than the machine has
-/// at 4K. Training calls are cut to the passes that fit. Every record is
-/// still recorded; between the extra calls Adam's BSDF fractions move on,
-/// as they do between the calls a time budget cuts. Staircase, radiance guiding,
-/// 64 spp, two threads: peak memory 1.84 → 1.41 GB, time unchanged
-/// (18.8 and 18.2 s); at 16 spp no call is cut (identical image).
-const RECORD_BUDGET_BYTES: u64 = 1 << 30;
-
-/// At most `n` passes, and no more than keep a call's records within
-/// [`RECORD_BUDGET_BYTES`], given the records a pass produced so far (or,
-/// before any, a path of `max_records_per_path` records at every one of
-/// `pixels`); at least one.
-fn passes_within_record_budget(
-    n: u64,
-    records_per_pass: Option<f64>,
-    pixels: usize,
-    max_records_per_path: u32,
-) -> u64 {
-    let per_pass = records_per_pass.unwrap_or(pixels as f64 * max_records_per_path as f64)
-        * RECORD_BYTES as f64;
-    let fit = if per_pass > 0.0 {
-        (RECORD_BUDGET_BYTES as f64 / per_pass) as u64
-    } else {
-        n
-    };
-    n.min(fit).max(1)
-}
 
 #[derive(Clone, Debug, Serialize)]
 pub struct IterationSummary {
@@ -604,33 +572,6 @@ pub fn render_guided<M: WeightModel>(
 mod tests {
     use super::*;
     use crate::sampling::Rng;
-
-    /// A call's records stay within the budget: the measured records per
-    /// pass (or the worst case before any) bound the passes, a pass too
-    /// large for the budget still renders alone, and small images keep the
-    /// full call.
-    #[test]
-    fn training_calls_keep_their_records_within_the_budget() {
-        let bytes = |passes: u64, per_pass: f64| passes as f64 * per_pass * RECORD_BYTES as f64;
-        // Staircase-like: 0.8 M records a pass.
-        let n = passes_within_record_budget(16, Some(8e5), 230_400, 10);
-        assert!(n < 16 && bytes(n, 8e5) <= RECORD_BUDGET_BYTES as f64, "{n}");
-        assert!(
-            bytes(n + 1, 8e5) > RECORD_BUDGET_BYTES as f64,
-            "{n}: one more would fit"
-        );
-        // 4K at 4 records a path: over the budget in one pass, still 1.
-        assert_eq!(
-            passes_within_record_budget(16, Some(4.0 * 8.3e6), 8_294_400, 10),
-            1
-        );
-        // Before any measurement: every pixel's path at the depth limit.
-        let first = passes_within_record_budget(16, None, 230_400, 10);
-        assert!(bytes(first, 2.304e6) <= RECORD_BUDGET_BYTES as f64 && first >= 1);
-        // A small image, or no records: the full call.
-        assert_eq!(passes_within_record_budget(16, Some(1e4), 10_000, 10), 16);
-        assert_eq!(passes_within_record_budget(16, Some(0.0), 10_000, 10), 16);
-    }
 
     /// Per-sample variance measured from `n`-spp films of a heavy-tailed
     /// estimator (1 almost always, 1000 with probability 1e-3).
