@@ -257,8 +257,8 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
         .leaves_mut()
         .par_iter_mut()
         .zip(per_leaf.into_par_iter())
-        .map(|(leaf, mut runs)| {
-            for w in &runs {
+        .map(|(leaf, mut works)| {
+            for w in &works {
                 for &(p, v) in &w.splats {
                     // Validated above: the quadtree's own guard cannot fire.
                     let _ = leaf.recording.record_box(p, v);
@@ -270,9 +270,9 @@ pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
             // had been traced one at a time. Consecutive steps on one
             // pixel's correlated samples had let the momentum drift
             // (staircase, 16 spp: +12 % variance).
-            let mut adam = match runs.len() {
-                1 => std::mem::take(&mut runs[0].adam),
-                _ => runs.iter().flat_map(|w| w.adam.iter().copied()).collect(),
+            let mut adam = match works.len() {
+                1 => std::mem::take(&mut works[0].adam),
+                _ => works.iter().flat_map(|w| w.adam.iter().copied()).collect(),
             };
             adam.sort_by_key(|&(pass, _)| pass);
             let mut s = AdamStats::default();

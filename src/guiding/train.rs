@@ -391,6 +391,9 @@ pub fn render_guided<M: WeightModel>(
                 None => pacer.next_call(call_start, passes_left, deadline, snapshots),
             };
             let n = if training {
+                // A path records at most one vertex per segment; without a
+                // depth limit the first call assumes 64, and later calls
+                // use the measured rate.
                 let max_records = opts.path.max_depth.unwrap_or(u32::MAX).min(64);
                 passes_within_record_budget(n, records_per_pass, w * h, max_records)
             } else {
