@@ -5,7 +5,9 @@
 //! every level runs the edge sums); `children_diffuse_precomputed` times a
 //! diffuse lobe from the cell form factors (through the API, Simd kernel); `api_simd` is what the guider
 //! pays per level through `ShadingLtc::child_integrals` with the default
-//! switches. Cells follow a descent into the lobe (α = 0.1, θ_o = 45°).
+//! switches; `children_x16_guider_chords` times the coarse levels with the
+//! product guider's chords (1/16 turn; plain quads from level 4). Cells
+//! follow a descent into the lobe (α = 0.1, θ_o = 45°).
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::Vec3;
@@ -56,6 +58,13 @@ fn bench(c: &mut Criterion) {
         ..opts
     };
     let gs = ShadingLtc::new(&lobes(0.0, 1.0, 0.1), &frame, wo, &table, &stokes_opts).glossy[0];
+    // The same lobe with the product guider's chords (1/16 turn, plain
+    // quads from level 4).
+    let guider_opts = LtcOptions {
+        plain_quad_depth: ltcguide::guiding::product::guiding_ltc_options().plain_quad_depth,
+        ..opts
+    };
+    let gg = ShadingLtc::new(&lobes(0.0, 1.0, 0.1), &frame, wo, &table, &guider_opts).glossy[0];
     let peak = {
         let m = g.a64.inverse() * glam::DVec3::Z;
         m.normalize().as_vec3()
@@ -76,6 +85,13 @@ fn bench(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("children_x16", level), &node, |b, &n| {
             b.iter(|| children_x16(&g, black_box(n), 99))
         });
+        if (2..gg.plain_quad_depth).contains(&level) {
+            group.bench_with_input(
+                BenchmarkId::new("children_x16_guider_chords", level),
+                &node,
+                |b, &n| b.iter(|| children_x16(&gg, black_box(n), 99)),
+            );
+        }
         if (2..=5).contains(&level) {
             group.bench_with_input(
                 BenchmarkId::new("children_scalar_stokes", level),

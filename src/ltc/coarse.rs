@@ -2,17 +2,23 @@
 //! shared with the wide kernel ([`super::coarse_x16`]).
 //!
 //! The 4 children of such a node have 3 parallels of chords and 3
-//! meridians of 2 segments between them; every edge appears once in a
-//! per-node table (level 2: 102 edges instead of 4 × 34 polygon edges), its
-//! two world endpoints stored as structure of arrays, padded to 16. The
-//! table is built once for the 340 nodes concerned (~280 KiB), so no call
-//! evaluates a sine. A kernel maps and normalises the endpoints, forms each
-//! edge's z term (the only component these depths need: a child straddling
-//! the horizon is clipped exactly instead of being sphere-approximated) and,
-//! for edges across the horizon, the crossing point and the term of the
-//! part above it. Clipping is thus per edge, independent of the child, and
-//! only the horizon arcs are per child. [`finish_coarse`], shared by both
-//! kernels, sums the terms, so they agree bit for bit.
+//! meridians of 2 segments between them. A per-node table holds the chord
+//! vertices of the 3 rows once, in world space (structure of arrays, whole
+//! batches of 16), ordered as a snake: row 0 in increasing azimuth, row 1
+//! back, row 2 forwards. Every edge is a *slot*: chord slot i runs from
+//! vertex i to vertex i + 1, so the two slots where the snake turns are
+//! meridian segments (the slot past the last vertex belongs to no child),
+//! and the other 4 meridian segments are the first lanes of one more batch.
+//! A kernel maps and normalises each vertex once (a chord's end is the
+//! next lane's start), forms each slot's z term (the only component these
+//! depths need: a child straddling the horizon is clipped exactly instead
+//! of being sphere-approximated) and, for edges across the horizon, the
+//! crossing point and the term of the part above it. Clipping is thus per
+//! edge, independent of the child; only the horizon arcs are per child.
+//! Each child's signed sum is one fused multiply-add per batch with the
+//! child's ±1/0 slot signs, reduced in an order both kernels share
+//! ([`accumulate`], [`reduce4`]), so they agree bit for bit. The tables
+//! ([`super::coarse_table`]) are built once, so no call evaluates a sine.
 //!
 //! The chords span at most 1/2^P turn, where P is the lobe's plain-quad
 //! depth (the first depth whose cells are a single chord wide): the API's
@@ -20,196 +26,77 @@
 //! accepts plain quads from depth 4 gets chords of 1/16 turn at depths 2–3
 //! too, a third of the edges for the same chord error.
 
-use super::children::{GlossyLtc, child_grid};
-use super::options::{EXACT_CLIP_DEPTH, FIRST_PLAIN_QUAD_DEPTH};
-use super::polygon::parallel_chords;
+use super::children::GlossyLtc;
+pub use super::coarse_table::{
+    ChildSlots, CoarseNode, MAX_BATCHES, MERIDIAN_END_LANE, MERIDIAN_ENDS, SLOT_ROOM, coarse_node,
+    precompute,
+};
 use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;
 use glam::Vec3;
-use std::ops::Range;
-use std::sync::OnceLock;
+use wide::f32x16;
 
-/// Most edges of a node (level 2: 3 parallels × 32 chords + 6 meridian
-/// segments), rounded up to whole batches of 16.
-pub const MAX_EDGES: usize = 112;
-/// Room for 16-wide reads from any edge of a node.
-pub const EDGE_ROOM: usize = MAX_EDGES + 16;
-
-/// The edges of one child within its node's table.
-#[derive(Clone, Debug, Default)]
-pub struct ChildEdges {
-    /// Chords of the lower parallel, in the child's direction.
-    pub lower: Range<usize>,
-    /// Chords of the upper parallel (the child runs them backwards).
-    pub upper: Range<usize>,
-    /// Meridian segment on the child's right (forwards) and left (backwards).
-    pub right: usize,
-    pub left: usize,
-    /// Bit e set when edge e belongs to the child (all; lower; upper chords).
-    pub mask: u128,
-    pub lower_mask: u128,
-    pub upper_mask: u128,
-}
-
-/// Edge table of one node: endpoints a → b (x, y, z arrays, zero padded).
-#[derive(Clone, Debug)]
-pub struct CoarseNode {
-    pub len: usize,
-    pub a: [Vec<f32>; 3],
-    pub b: [Vec<f32>; 3],
-    pub children: [ChildEdges; 4],
-}
-
-fn build_node(cell: Cell, chord_turns: f64) -> CoarseNode {
-    let depth = cell.depth + 1;
-    let (z, _) = child_grid(cell);
-    let span = 1.0 / (1u64 << depth) as f32;
-    let v0 = 2.0 * cell.iy as f32 * span;
-    // Row i: 2·n_i + 1 points spanning both children.
-    let rows: Vec<Vec<Vec3>> = z
-        .iter()
-        .map(|&z| {
-            let n = parallel_chords(depth, z as f64, chord_turns);
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            (0..=2 * n)
-                .map(|j| {
-                    let (s, c) = super::polygon::sincos_turns(v0 + span * j as f32 / n as f32);
-                    Vec3::new(r * c, r * s, z)
-                })
-                .collect()
-        })
-        .collect();
-    let n = rows.iter().map(|r| (r.len() - 1) / 2).collect::<Vec<_>>();
-    let mut edges: Vec<(Vec3, Vec3)> = Vec::new();
-    let mut row_start = [0usize; 3];
-    for (i, row) in rows.iter().enumerate() {
-        row_start[i] = edges.len();
-        edges.extend(row.windows(2).map(|w| (w[0], w[1])));
-    }
-    // Meridian segment (column c, between rows s and s + 1).
-    let mut meridian = [[0usize; 2]; 3];
-    for (c, m) in meridian.iter_mut().enumerate() {
-        for (s, e) in m.iter_mut().enumerate() {
-            *e = edges.len();
-            edges.push((rows[s][c * n[s]], rows[s + 1][c * n[s + 1]]));
-        }
-    }
-    let len = edges.len();
-    assert!(len <= MAX_EDGES);
-    let padded = len.div_ceil(16) * 16;
-    let coord = |f: &dyn Fn(&(Vec3, Vec3)) -> f32| {
-        let mut v: Vec<f32> = edges.iter().map(f).collect();
-        v.resize(padded, 0.0);
-        v
-    };
-    let children = std::array::from_fn(|k| {
-        let (iu, iv) = (k & 1, k >> 1);
-        let lower = row_start[iu] + iv * n[iu]..row_start[iu] + (iv + 1) * n[iu];
-        let upper = row_start[iu + 1] + iv * n[iu + 1]..row_start[iu + 1] + (iv + 1) * n[iu + 1];
-        let (right, left) = (meridian[iv + 1][iu], meridian[iv][iu]);
-        let range_mask = |r: &Range<usize>| r.clone().fold(0u128, |m, e| m | 1u128 << e);
-        let (lower_mask, upper_mask) = (range_mask(&lower), range_mask(&upper));
-        ChildEdges {
-            lower,
-            upper,
-            right,
-            left,
-            mask: lower_mask | upper_mask | (1u128 << right) | (1u128 << left),
-            lower_mask,
-            upper_mask,
-        }
-    });
-    CoarseNode {
-        len,
-        a: [coord(&|e| e.0.x), coord(&|e| e.0.y), coord(&|e| e.0.z)],
-        b: [coord(&|e| e.1.x), coord(&|e| e.1.y), coord(&|e| e.1.z)],
-        children,
-    }
-}
-
-/// The smallest plain-quad depth with coarse children (depth 2 is the
-/// first below the exactly clipped level 1).
-const FIRST_COARSE_TABLE: u32 = EXACT_CLIP_DEPTH + 2;
-
-/// The table of a plain-quad depth P: the nodes whose children are coarse
-/// (depths 1..P − 1), in level order, then iy·2^d + ix, with chords of at
-/// most 1/2^P turn.
-fn build_table(plain_quad_depth: u32) -> Vec<CoarseNode> {
-    let chord_turns = 1.0 / (1u64 << plain_quad_depth) as f64;
-    let mut v = Vec::new();
-    for depth in 1..plain_quad_depth - 1 {
-        let n = 1u32 << depth;
-        for iy in 0..n {
-            for ix in 0..n {
-                v.push(build_node(Cell { depth, ix, iy }, chord_turns));
-            }
-        }
-    }
-    v
-}
-
-/// One table per plain-quad depth FIRST_COARSE_TABLE..=FIRST_PLAIN_QUAD_DEPTH,
-/// each built on first use, so a run builds only the ones its options use.
-const TABLE_COUNT: usize = (FIRST_PLAIN_QUAD_DEPTH - FIRST_COARSE_TABLE + 1) as usize;
-static TABLES: [OnceLock<Vec<CoarseNode>>; TABLE_COUNT] = [const { OnceLock::new() }; TABLE_COUNT];
-
-fn table(plain_quad_depth: u32) -> &'static [CoarseNode] {
-    debug_assert!((FIRST_COARSE_TABLE..=FIRST_PLAIN_QUAD_DEPTH).contains(&plain_quad_depth));
-    TABLES[(plain_quad_depth - FIRST_COARSE_TABLE) as usize]
-        .get_or_init(|| build_table(plain_quad_depth))
-}
-
-/// Forces the table of the API's default options (others are built on
-/// first use).
-pub fn precompute() {
-    table(FIRST_PLAIN_QUAD_DEPTH);
-}
-
-/// The edge table of a node whose children are coarse (depth 1 to
-/// `plain_quad_depth` − 2).
-#[inline]
-pub fn coarse_node(cell: Cell, plain_quad_depth: u32) -> &'static CoarseNode {
-    debug_assert!((1..plain_quad_depth - 1).contains(&cell.depth));
-    let base = ((1usize << (2 * cell.depth)) - 1) / 3 - 1;
-    let n = 1usize << cell.depth;
-    &table(plain_quad_depth)[base + cell.iy as usize * n + cell.ix as usize]
-}
-
-/// What either kernel leaves per edge of a node (bit e of a mask is edge e).
-pub struct CoarseEdges {
-    /// z term of the whole edge (2π·F_z contribution, winding a → b).
-    pub ez: [f32; EDGE_ROOM],
-    /// z term of the part of the edge above the horizon.
-    pub clip: [f32; EDGE_ROOM],
-    /// Where a crossing edge meets the horizon (unit, z = 0).
-    pub px: [f32; MAX_EDGES],
-    pub py: [f32; MAX_EDGES],
-    /// Both endpoints at z ≥ 0; both at z ≤ 0; a at z ≥ 0 (the edge
-    /// crosses when this differs from b's).
+/// Which slots lie wholly above the horizon (both ends at z ≥ 0), wholly
+/// below it (both at z ≤ 0), start above it (a at z ≥ 0), and cross it
+/// (a and b on opposite sides); bit s is slot s.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SlotMasks {
     pub above: u128,
     pub below: u128,
     pub a_up: u128,
     pub crossing: u128,
 }
 
-impl CoarseEdges {
+/// Per-slot terms the children across the horizon need, however a kernel
+/// keeps them.
+pub trait CrossingTerms {
+    /// z terms of batch b's whole edges (2π·F_z contributions, a → b).
+    fn whole(&self, b: usize) -> f32x16;
+    /// z terms of the parts above the horizon of batch b's crossing edges
+    /// (asked only of batches with one).
+    fn part(&self, b: usize) -> f32x16;
+    /// Where crossing slot j meets the horizon (unit, z = 0).
+    fn point(&self, j: usize) -> Vec3;
+}
+
+/// The scalar kernel's per-slot terms.
+pub struct SlotTerms {
+    pub ez: [f32; SLOT_ROOM],
+    pub part: [f32; SLOT_ROOM],
+    pub px: [f32; SLOT_ROOM],
+    pub py: [f32; SLOT_ROOM],
+    pub masks: SlotMasks,
+}
+
+impl SlotTerms {
     pub fn new() -> Self {
-        CoarseEdges {
-            ez: [0.0; EDGE_ROOM],
-            clip: [0.0; EDGE_ROOM],
-            px: [0.0; MAX_EDGES],
-            py: [0.0; MAX_EDGES],
-            above: 0,
-            below: 0,
-            a_up: 0,
-            crossing: 0,
+        SlotTerms {
+            ez: [0.0; SLOT_ROOM],
+            part: [0.0; SLOT_ROOM],
+            px: [0.0; SLOT_ROOM],
+            py: [0.0; SLOT_ROOM],
+            masks: SlotMasks::default(),
         }
     }
 }
 
-impl Default for CoarseEdges {
+impl Default for SlotTerms {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+impl CrossingTerms for SlotTerms {
+    fn whole(&self, b: usize) -> f32x16 {
+        super::simd::load16(&self.ez, 16 * b)
+    }
+
+    fn part(&self, b: usize) -> f32x16 {
+        super::simd::load16(&self.part, 16 * b)
+    }
+
+    fn point(&self, j: usize) -> Vec3 {
+        Vec3::new(self.px[j], self.py[j], 0.0)
     }
 }
 
@@ -224,75 +111,114 @@ pub fn horizon_point(a: Vec3, b: Vec3) -> Vec3 {
     Vec3::new(x * inv, y * inv, 0.0)
 }
 
-/// Pairwise sum of the at most 16 values `t[r]` (zero padded): a fixed
-/// order both kernels share (chords per child are 1, 2, 4, 8 or 16).
+/// Adds batch `b` of slot terms `v` into the 4 children's accumulators,
+/// each term times the child's sign of its slot (exact: ±1 or 0). The
+/// order of the batches is the order of the sums, which both kernels share.
 #[inline(always)]
-fn tree_sum(t: &[f32; EDGE_ROOM], r: &Range<usize>) -> f32 {
-    let w: &[f32; 16] = t[r.start..r.start + 16].try_into().unwrap();
-    let len = r.len();
-    let mut v: [f32; 16] = std::array::from_fn(|l| if l < len { w[l] } else { 0.0 });
-    let mut w = 8;
-    while w > 0 {
-        for l in 0..w {
-            v[l] += v[l + w];
-        }
-        w /= 2;
+pub fn accumulate(acc: &mut [f32x16; 4], node: &CoarseNode, b: usize, v: f32x16) {
+    for (a, sign) in acc.iter_mut().zip(&node.signs[b]) {
+        *a = v.mul_add(*sign, *a);
     }
-    v[0]
 }
 
-/// Signed sum of a child's edge terms `t` in its winding.
-#[inline]
-fn child_sum(c: &ChildEdges, t: &[f32; EDGE_ROOM]) -> f32 {
-    (tree_sum(t, &c.lower) + t[c.right]) - (tree_sum(t, &c.upper) + t[c.left])
+/// The 4 accumulators' lane sums, in a fixed order.
+#[inline(always)]
+pub fn reduce4(acc: [f32x16; 4]) -> [f32; 4] {
+    super::simd::lane_sums4(acc).to_array()
 }
 
-/// The 4 child integrals from the edges: exact F_z above the horizon, 0
-/// below, exact clipping across it.
-pub fn finish_coarse(g: &GlossyLtc, node: &CoarseNode, e: &CoarseEdges) -> [f32; 4] {
-    let scale = g.orientation * (0.5 / std::f32::consts::PI);
-    std::array::from_fn(|k| {
-        let c = &node.children[k];
-        if e.above & c.mask == c.mask {
-            (child_sum(c, &e.ez) * scale).max(0.0)
-        } else if e.below & c.mask == c.mask {
-            0.0
+/// A child's integral from its signed edge sum.
+#[inline(always)]
+pub fn child_integral(g: &GlossyLtc, sum: f32) -> f32 {
+    (sum * (g.orientation * (0.5 / std::f32::consts::PI))).max(0.0)
+}
+
+/// The 4 child integrals from their signed sums of whole edges: exact F_z
+/// above the horizon, 0 below, exact clipping across it.
+#[inline(always)]
+pub fn finish_coarse(
+    g: &GlossyLtc,
+    node: &CoarseNode,
+    sums: [f32; 4],
+    m: &SlotMasks,
+    terms: &impl CrossingTerms,
+) -> [f32; 4] {
+    let status = node.children.each_ref().map(|c| {
+        if m.above & c.mask == c.mask {
+            Some(true)
+        } else if m.below & c.mask == c.mask {
+            Some(false)
         } else {
-            ((child_sum(c, &e.clip) + horizon_arcs(c, e)) * scale).max(0.0)
+            None
         }
+    });
+    if status.iter().all(Option::is_some) {
+        return std::array::from_fn(|k| {
+            if status[k] == Some(true) {
+                child_integral(g, sums[k])
+            } else {
+                0.0
+            }
+        });
+    }
+    clipped_children(g, node, sums, m, terms, status)
+}
+
+/// [`finish_coarse`] with a child across the horizon: the sums of the
+/// edges' parts above the horizon (whole terms above, nothing below, the
+/// part of a crossing edge), closed by the horizon arcs.
+#[cold]
+#[inline(never)]
+fn clipped_children(
+    g: &GlossyLtc,
+    node: &CoarseNode,
+    sums: [f32; 4],
+    m: &SlotMasks,
+    terms: &impl CrossingTerms,
+    status: [Option<bool>; 4],
+) -> [f32; 4] {
+    let mut acc = [f32x16::splat(0.0); 4];
+    for b in 0..node.batches() {
+        let lanes = |mask: u128| super::simd::lane_mask((mask >> (16 * b)) as u16);
+        let above = lanes(m.above).bitselect(terms.whole(b), f32x16::splat(0.0));
+        let crossing = (m.crossing >> (16 * b)) as u16;
+        let clipped = if crossing != 0 {
+            lanes(m.crossing).bitselect(terms.part(b), above)
+        } else {
+            above
+        };
+        accumulate(&mut acc, node, b, clipped);
+    }
+    let clipped = reduce4(acc);
+    std::array::from_fn(|k| match status[k] {
+        Some(true) => child_integral(g, sums[k]),
+        Some(false) => 0.0,
+        None => child_integral(g, clipped[k] + horizon_arcs(&node.children[k], m, terms)),
     })
 }
 
 /// The horizon arcs of a clipped child: from each point where its boundary
 /// leaves the upper half-space to the next one where it re-enters.
-#[cold]
-fn horizon_arcs(c: &ChildEdges, e: &CoarseEdges) -> f32 {
-    // The crossing edges in the child's winding: lower chords forwards,
-    // right meridian, upper chords backwards, left meridian.
-    let lower = e.crossing & c.lower_mask;
-    let upper = e.crossing & c.upper_mask;
-    let bits = |m: u128, forward: bool| {
-        let mut m = m;
+fn horizon_arcs(c: &ChildSlots, m: &SlotMasks, terms: &impl CrossingTerms) -> f32 {
+    // The child's crossing slots in its winding.
+    let crossings = c.parts.iter().flat_map(|&(slots, forward)| {
+        let mut bits = m.crossing & slots;
         std::iter::from_fn(move || {
-            (m != 0).then(|| {
+            (bits != 0).then(|| {
                 let j = if forward {
-                    m.trailing_zeros()
+                    bits.trailing_zeros()
                 } else {
-                    127 - m.leading_zeros()
+                    127 - bits.leading_zeros()
                 } as usize;
-                m &= !(1u128 << j);
+                bits &= !(1u128 << j);
                 (j, forward)
             })
         })
-    };
-    let order = bits(lower, true)
-        .chain(bits(e.crossing & (1u128 << c.right), true))
-        .chain(bits(upper, false))
-        .chain(bits(e.crossing & (1u128 << c.left), false));
-    horizon_arc_sum(order.map(|(j, forward)| {
+    });
+    horizon_arc_sum(crossings.map(|(j, forward)| {
         // Leaving when the edge's start (in the child's winding) is above.
-        let exit = (e.a_up >> j & 1 == 1) == forward;
-        (Vec3::new(e.px[j], e.py[j], 0.0), exit)
+        let exit = (m.a_up >> j & 1 == 1) == forward;
+        (terms.point(j), exit)
     }))
 }
 
@@ -336,38 +262,54 @@ pub fn horizon_arc_sum(crossings: impl Iterator<Item = (Vec3, bool)>) -> f32 {
     sum
 }
 
-/// The 4 child integrals of a coarse node, scalar. Along a parallel each
-/// edge starts where the previous one ended, so that corner is reused
-/// rather than mapped again.
+/// Records slot `j`, the edge between unit vectors `ua` → `ub`.
+fn record_slot(e: &mut SlotTerms, j: usize, ua: Vec3, ub: Vec3) {
+    let (a_up, b_up) = (ua.z >= 0.0, ub.z >= 0.0);
+    let m = &mut e.masks;
+    m.above |= ((a_up && b_up) as u128) << j;
+    m.below |= ((ua.z <= 0.0 && ub.z <= 0.0) as u128) << j;
+    m.a_up |= (a_up as u128) << j;
+    let (c, k) = unit_edge(ua, ub);
+    e.ez[j] = c.z * k;
+    if a_up != b_up {
+        m.crossing |= 1u128 << j;
+        let p = horizon_point(ua, ub);
+        (e.px[j], e.py[j]) = (p.x, p.y);
+        e.part[j] = above_part_z(ua, ub, p, a_up);
+    }
+}
+
+/// The 4 child integrals of a coarse node, scalar: every vertex mapped
+/// once, every child's slot from its two unit vertices.
 pub fn coarse_children_scalar(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let node = coarse_node(cell, g.plain_quad_depth);
-    let mut e = CoarseEdges::new();
-    let mut prev: Option<(Vec3, Vec3)> = None;
-    for j in 0..node.len {
-        let wa = Vec3::new(node.a[0][j], node.a[1][j], node.a[2][j]);
-        let wb = Vec3::new(node.b[0][j], node.b[1][j], node.b[2][j]);
-        let ua = match prev {
-            Some((w, u)) if w == wa => u,
-            _ => unit_cosine_vertex(&g.rows, wa),
-        };
-        let ub = unit_cosine_vertex(&g.rows, wb);
-        prev = Some((wb, ub));
-        let (a_up, b_up) = (ua.z >= 0.0, ub.z >= 0.0);
-        e.above |= ((a_up && b_up) as u128) << j;
-        e.below |= ((ua.z <= 0.0 && ub.z <= 0.0) as u128) << j;
-        e.a_up |= (a_up as u128) << j;
-        let (c, k) = unit_edge(ua, ub);
-        e.ez[j] = c.z * k;
-        e.clip[j] = if a_up != b_up {
-            e.crossing |= 1u128 << j;
-            let p = horizon_point(ua, ub);
-            (e.px[j], e.py[j]) = (p.x, p.y);
-            above_part_z(ua, ub, p, a_up)
-        } else if a_up {
-            e.ez[j]
-        } else {
-            0.0
-        };
+    let mut e = SlotTerms::new();
+    let mut u = [Vec3::ZERO; SLOT_ROOM];
+    for (i, v) in u[..node.vertex_count].iter_mut().enumerate() {
+        let b = &node.vertices[i / 16];
+        let l = i % 16;
+        *v = unit_cosine_vertex(&g.rows, Vec3::new(b[0][l], b[1][l], b[2][l]));
     }
-    finish_coarse(g, node, &e)
+    // Only the children's slots: the others have sign 0 in every sum.
+    let meridians = node.meridian_slot(0);
+    let mut slots = node.used;
+    while slots != 0 {
+        let j = slots.trailing_zeros() as usize;
+        slots &= slots - 1;
+        let (a, b) = if j < meridians {
+            (j, j + 1)
+        } else {
+            let l = j - meridians;
+            (
+                node.meridian_start[l] as usize,
+                node.meridian_end[l] as usize,
+            )
+        };
+        record_slot(&mut e, j, u[a], u[b]);
+    }
+    let mut acc = [f32x16::splat(0.0); 4];
+    for b in 0..node.batches() {
+        accumulate(&mut acc, node, b, e.whole(b));
+    }
+    finish_coarse(g, node, reduce4(acc), &e.masks, &e)
 }

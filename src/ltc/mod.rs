@@ -25,6 +25,9 @@
 //! - [`children`]: the per-shading-point mixture ([`ShadingLtc`]) and the
 //!   4-child integrals of a node — the API the product guider calls;
 //! - [`children_x16`]: the same 4 children × 4 edges in one f32x16;
+//! - [`coarse`] (with its tables, [`coarse_table`], and the wide
+//!   [`coarse_x16`]): levels 2–5, whose parallels need several chords, each
+//!   vertex mapped once and each edge clipped exactly at the horizon;
 //! - [`parallel_quadrature`] (with [`parallel_clip`] and the wide
 //!   [`parallel_quadrature_x16`]): an opt-in alternative to the chords at
 //!   levels 2–5, Stokes quadrature along the true parallels.
@@ -34,6 +37,7 @@
 pub mod children;
 pub mod children_x16;
 pub mod coarse;
+pub mod coarse_table;
 pub mod coarse_x16;
 pub mod fast_math;
 pub mod fit;

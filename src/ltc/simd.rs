@@ -364,3 +364,90 @@ pub fn broadcast_load4(p: &f32) -> wide::f32x4 {
         wide::f32x4::splat(*p)
     }
 }
+
+/// Lanes 1..16 of `v` followed by lane 0 of `next`: each lane's successor
+/// (one valignd on AVX-512).
+#[inline(always)]
+pub fn successor_lanes(v: f32x16, next: f32x16) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{__m512i, _mm512_alignr_epi32};
+        // SAFETY: f32x16 and __m512i are both 64 bytes; the lanes are moved
+        // as bits; avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            let v: __m512i = std::mem::transmute(v);
+            let n: __m512i = std::mem::transmute(next);
+            std::mem::transmute(_mm512_alignr_epi32::<1>(n, v))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        let (a, n) = (v.to_array(), next.to_array());
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
+            if l < 15 { a[l + 1] } else { n[0] }
+        }))
+    }
+}
+
+/// A lane mask (all bits set where bit l of `bits` is) for `bitselect`.
+#[inline(always)]
+pub fn lane_mask(bits: u16) -> f32x16 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{_mm512_maskz_mov_epi32, _mm512_set1_epi32};
+        // SAFETY: the 16 i32 lanes are reinterpreted as f32 bit patterns
+        // (all ones or zero); avx512f is enabled at compile time.
+        unsafe { std::mem::transmute(_mm512_maskz_mov_epi32(bits, _mm512_set1_epi32(-1))) }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
+            f32::from_bits(if bits >> l & 1 == 1 { u32::MAX } else { 0 })
+        }))
+    }
+}
+
+/// The lane sums of 4 vectors v_k, each as ((w0 + w2) + (w1 + w3)) with
+/// w_i = (v_i + v_(i+8)) + (v_(i+4) + v_(i+12)): on AVX-512 the four
+/// reductions share their shuffles (14 operations instead of 4 × 7).
+#[inline(always)]
+pub fn lane_sums4(v: [f32x16; 4]) -> wide::f32x4 {
+    #[cfg(target_feature = "avx512f")]
+    {
+        use std::arch::x86_64::{
+            __m512, _mm512_add_ps, _mm512_castps512_ps128, _mm512_permute_ps,
+            _mm512_permutexvar_ps, _mm512_set_epi32, _mm512_shuffle_f32x4,
+        };
+        // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32, f32x4
+        // and __m128 both 16 bytes holding 4; avx512f is enabled at compile
+        // time (the cfg above).
+        unsafe {
+            let [p0, p1, p2, p3]: [__m512; 4] = std::mem::transmute(v);
+            // Blocks (p.b0 + p.b2, p.b1 + p.b3) of two vectors side by side.
+            let halves = |a: __m512, b: __m512| {
+                _mm512_add_ps(
+                    _mm512_shuffle_f32x4::<0b01_00_01_00>(a, b),
+                    _mm512_shuffle_f32x4::<0b11_10_11_10>(a, b),
+                )
+            };
+            let (h01, h23) = (halves(p0, p1), halves(p2, p3));
+            // Block k: w of vector k.
+            let w = _mm512_add_ps(
+                _mm512_shuffle_f32x4::<0b10_00_10_00>(h01, h23),
+                _mm512_shuffle_f32x4::<0b11_01_11_01>(h01, h23),
+            );
+            let x = _mm512_add_ps(w, _mm512_permute_ps::<0b01_00_11_10>(w));
+            let y = _mm512_add_ps(x, _mm512_permute_ps::<0b10_11_00_01>(x));
+            let lanes = _mm512_set_epi32(0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 12, 8, 4, 0);
+            std::mem::transmute(_mm512_castps512_ps128(_mm512_permutexvar_ps(lanes, y)))
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        wide::f32x4::from(v.map(|v| {
+            let a = v.to_array();
+            let w: [f32; 4] = std::array::from_fn(|i| (a[i] + a[i + 8]) + (a[i + 4] + a[i + 12]));
+            (w[0] + w[2]) + (w[1] + w[3])
+        }))
+    }
+}
