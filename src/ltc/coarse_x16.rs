@@ -1,11 +1,11 @@
 //! Children with subdivided parallels, 16 slots per vector: the scalar
 //! [`super::coarse`] kernel's per-vertex and per-edge operations, lane by
 //! lane. Each batch of chord vertices is mapped once; a chord's end is the
-//! next lane's start (one lane shift across two batches), the meridians are
-//! one batch of their own, and the children's signed sums are masked
-//! additions as the edges come. The per-slot terms a child across the
-//! horizon needs are kept batch by batch for the shared
-//! [`super::coarse::finish_coarse`].
+//! next lane's start (one lane shift across two batches), the meridians off
+//! the snake are one batch of their own, and each child's signed sum grows
+//! by one fused multiply-add with its slot signs per batch as the edges
+//! come. The per-slot terms a child across the horizon needs are kept
+//! batch by batch for the shared [`super::coarse::finish_coarse`].
 
 use super::children::GlossyLtc;
 use super::coarse::{
