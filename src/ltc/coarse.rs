@@ -28,8 +28,7 @@
 
 use super::children::GlossyLtc;
 pub use super::coarse_table::{
-    ChildSlots, CoarseNode, MAX_BATCHES, MERIDIAN_END_LANE, MERIDIAN_ENDS, SLOT_ROOM, coarse_node,
-    precompute,
+    ChildSlots, CoarseNode, MAX_BATCHES, MERIDIAN_ENDS, SLOT_ROOM, coarse_node, precompute,
 };
 use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;

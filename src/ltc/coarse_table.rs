@@ -178,15 +178,9 @@ fn build_node(cell: Cell, chord_turns: f64) -> CoarseNode {
     let children = parts.map(|parts| {
         let bits = |slots: &[usize]| slots.iter().fold(0u128, |m, &s| m | 1u128 << s);
         let parts = parts.map(|(slots, same)| (bits(&slots), same));
-        let signed = |same: bool| {
-            parts
-                .iter()
-                .filter(|p| p.1 == same)
-                .fold(0u128, |m, p| m | p.0)
-        };
         ChildSlots {
             parts,
-            mask: signed(true) | signed(false),
+            mask: parts.iter().fold(0, |m, p| m | p.0),
         }
     });
     let signs = (0..=batches)

@@ -57,7 +57,7 @@ fn for_each_batch(
     if batches == 1 {
         let (from, to) = (&node.meridian_start, &node.meridian_end);
         edge(
-            1,
+            batches,
             first.map(|v| permute(v, from)),
             first.map(|v| permute(v, to)),
         );
