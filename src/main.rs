@@ -69,11 +69,11 @@ struct ProductArgs {
     #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
     product_vertices: u32,
     /// Product guiding: every path computes its own first product lobe, as
-    /// in the paper. By default a pixel's paths reuse the first vertex's
-    /// lobe and its child integrals while it matches theirs (same lobes
-    /// within 30 %, normal and ω_o within α/10); product then runs at
-    /// 0.81–0.89× radiance guiding's spp/s on staircase, about 0.85× on
-    /// average (docs/results-reading.md).
+    /// in the paper. By default the paths of a pixel and of its neighbours
+    /// in a row block reuse a first vertex's lobe and its child integrals
+    /// while it matches theirs (same lobes within 30 %, normal and ω_o
+    /// within α/10); product then runs at 0.81–0.90× radiance guiding's
+    /// spp/s on staircase, about 0.87× on average (docs/results-reading.md).
     #[arg(long)]
     no_pixel_reuse: bool,
 }

@@ -134,8 +134,9 @@ const MAX_PASSES_PER_CALL: u64 = 16;
 /// Chooses how many passes each call of `render_passes_into` renders.
 ///
 /// A call traces each pixel's paths one after the other: their first hits
-/// stay in cache, and product guiding reuses a pixel's first product lobe
-/// (`guiding::pixel_reuse`). But the clock is read only between calls, so:
+/// stay in cache, and product guiding reuses a first product lobe across a
+/// pixel's paths and its neighbours' (`guiding::pixel_reuse`). But the
+/// clock is read only between calls, so:
 /// - a sample budget renders what is left of it;
 /// - a deadline or a snapshot some seconds away takes about half of that
 ///   time, judged by the last call's seconds per pass, so the calls shrink
@@ -228,9 +229,9 @@ pub struct RenderOptions {
     /// Product guiding: the first this many vertices of a path take product
     /// weights (0: every vertex).
     pub product_vertices: u32,
-    /// Product guiding: a pixel's paths reuse their first vertex's product
-    /// lobe while it matches (`guiding::pixel_reuse`); off: the paper's
-    /// lobe per vertex.
+    /// Product guiding: the paths of a pixel and its neighbours reuse a
+    /// first vertex's product lobe while it matches
+    /// (`guiding::pixel_reuse`); off: the paper's lobe per vertex.
     pub pixel_reuse: bool,
     /// Follow the per-scene plan (and drop guiding where it does not pay).
     /// Off only for measuring what the plan saves.

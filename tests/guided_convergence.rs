@@ -130,10 +130,14 @@ fn a_fixed_seed_gives_a_fixed_image_whatever_the_thread_count() {
     }
 }
 
-/// Product guiding reuses a pixel's first product lobe across its paths
-/// (`guiding::pixel_reuse`); the cache is cleared after every pixel, so the
-/// image still depends only on the seed. The reuse happens (counted); off,
-/// nothing is reused (nor counted) and the image differs.
+/// Product guiding reuses a first-vertex product lobe across the paths of
+/// a pixel and its neighbours (`guiding::pixel_reuse`); the cache is
+/// cleared after every row block, so the image still depends only on the
+/// seed. The reuse happens (counted) and crosses pixels: fewer lobes are
+/// built than there are pixels, though each pixel is rendered by several
+/// calls (one per training iteration at least; with the cache cleared per
+/// pixel, this render built 100664 lobes for 76800 pixels). Off, nothing is
+/// reused (nor counted) and the image differs.
 #[test]
 fn product_with_lobe_reuse_gives_a_fixed_image_whatever_the_thread_count() {
     let scene = own_scene();
@@ -162,9 +166,10 @@ fn product_with_lobe_reuse_gives_a_fixed_image_whatever_the_thread_count() {
     let (c, _) = run(3, true);
     assert!(a == b && b == c, "images differ across thread counts");
     assert_eq!(ca, cb);
+    let pixels = (scene.camera.width * scene.camera.height) as u64;
     assert!(
-        ca.product_lobes_reused > ca.product_lobes_built / 2,
-        "{} reused, {} built",
+        ca.product_lobes_reused > ca.product_lobes_built && ca.product_lobes_built < pixels,
+        "{} reused, {} built, {pixels} pixels",
         ca.product_lobes_reused,
         ca.product_lobes_built
     );

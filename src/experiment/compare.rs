@@ -36,7 +36,8 @@ pub struct CompareOptions {
     pub cosine_lobes: CosineLobes,
     /// Product guiding's vertices per path with product weights (0: all).
     pub product_vertices: u32,
-    /// Product guiding's reuse of a pixel's first lobe.
+    /// Product guiding's reuse of a first-vertex lobe across a pixel's
+    /// paths and its neighbours'.
     pub pixel_reuse: bool,
     /// Render the methods of a run at the same time, each on an equal share
     /// of the threads, instead of one after the other.

@@ -16,7 +16,7 @@ pub trait WeightModel: Sync {
     type Weights<'a>: ChildWeights
     where
         Self: 'a;
-    /// Per-worker memory for the weights of a pixel's paths.
+    /// Per-worker memory for the weights of a row block's paths.
     type Cache: VertexCache;
 
     /// The weights at a vertex; `None` means the guide cannot help here

@@ -58,8 +58,8 @@ pub struct ProductModel<'t> {
 pub const DEFAULT_PRODUCT_VERTICES: u32 = 1;
 
 /// Where product weights apply for a `product_vertices` setting, and
-/// whether a pixel's paths reuse their first product lobe, for plan lines
-/// and reports.
+/// whether first-vertex product lobes are reused across neighbouring
+/// paths, for plan lines and reports.
 pub fn product_weights_scope(product_vertices: u32, pixel_reuse: bool) -> String {
     let scope = match product_vertices {
         0 => "every vertex".into(),
@@ -67,7 +67,7 @@ pub fn product_weights_scope(product_vertices: u32, pixel_reuse: bool) -> String
         n => format!("the first {n} vertices of each path, radiance weights deeper"),
     };
     let reuse = if pixel_reuse {
-        "the first vertex's lobe reused across a pixel's paths"
+        "the first vertex's lobe reused across the paths of neighbouring pixels"
     } else {
         "no lobe reuse across paths"
     };
@@ -158,10 +158,12 @@ const MEMO_SLOTS: usize = 256;
 ///
 /// At one vertex, `root_total`, the sample descent and the pdf descents
 /// all start at the root and share their top levels; with the lobe reused
-/// across a pixel's paths (`guiding::pixel_reuse`), every descent of the
-/// pixel shares them too. A slot per depth (before) held one descent's
-/// prefix, so each path of a pixel recomputed what the previous one had
-/// evicted; 256 slots hold the union of a pixel's descents. A value is the
+/// across neighbouring paths (`guiding::pixel_reuse`), every descent of
+/// those paths shares them too. A slot per depth (before) held one
+/// descent's prefix, so each path of a pixel recomputed what the previous
+/// one had evicted; 256 slots hold the union of a pixel's descents (1024,
+/// for lobes reused across pixels, measured no faster: staircase with NEE,
+/// 16 spp, 6 side-by-side runs, CPU ×1.01). A value is the
 /// same pure function of the cell whether computed or recalled, so sample
 /// and pdf stay bit-identical, and a collision only costs a recomputation.
 #[derive(Clone, Debug)]
@@ -205,7 +207,7 @@ impl ChildMemo {
 /// A shading point's product lobe: its LTC mixture, the kernel that
 /// integrates it and the memo of the child integrals computed so far. It
 /// lives in the worker's [`ProductCache`] and the vertex borrows it, so it
-/// is never moved, and a pixel's next paths can reuse it.
+/// is never moved, and the next paths can reuse it.
 pub struct ProductLobe {
     pub ltc: ShadingLtc,
     pub kernel: ProductKernel,

@@ -65,17 +65,19 @@ pub struct PathVertex {
     pub depth: u32,
 }
 
-/// Per-worker memory a guide keeps between the paths of one pixel. The
-/// render loop ends it after every pixel, so what a path sees never
-/// depends on which pixels a worker happened to render before (images stay
-/// reproducible for a seed and thread count).
+/// Per-worker memory a guide keeps between the paths of one row block
+/// (its pixels in order, each pixel's paths one after the other). The
+/// render loop ends it after every block, so what a path sees depends only
+/// on the earlier paths of its own block, never on which blocks a worker
+/// happened to render before (images stay reproducible for a seed and
+/// thread count).
 pub trait VertexCache: Default + Send {
-    /// Forgets the pixel and adds what the cache counted to `counters`.
-    fn end_pixel(&mut self, counters: &mut crate::integrator::stats::RenderCounters);
+    /// Forgets the block and adds what the cache counted to `counters`.
+    fn end_block(&mut self, counters: &mut crate::integrator::stats::RenderCounters);
 }
 
 impl VertexCache for () {
-    fn end_pixel(&mut self, _counters: &mut crate::integrator::stats::RenderCounters) {}
+    fn end_block(&mut self, _counters: &mut crate::integrator::stats::RenderCounters) {}
 }
 
 pub trait Guide: Sync {
@@ -84,7 +86,7 @@ pub trait Guide: Sync {
         Self: 'a;
     /// Per-thread storage for learning records.
     type Recorder: Send;
-    /// Per-worker memory shared by the paths of a pixel.
+    /// Per-worker memory shared by the paths of a row block.
     type Cache: VertexCache;
 
     /// The sampling distribution at a non-delta vertex; `None` means BSDF

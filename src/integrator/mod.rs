@@ -122,8 +122,10 @@ pub fn render_passes_into<G: Guide>(
                         *s += v;
                         *q += v * v;
                     }
-                    cache.end_pixel(&mut counters);
                 }
+                // The block's pixels share the cache in their fixed order;
+                // it is forgotten before the worker takes another block.
+                cache.end_block(&mut counters);
                 (counters, recorder)
             },
         )
