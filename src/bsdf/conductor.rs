@@ -3,7 +3,7 @@
 //! Fresnel factor or `material none` (Fresnel = 1).
 
 use super::fresnel::fresnel_conductor;
-use super::microfacet::{Ggx, half_vector};
+use super::microfacet::Ggx;
 use super::{BsdfSample, ConductorFresnel};
 use crate::math::{Spectrum, is_finite3, reflect_local};
 use glam::{Vec2, Vec3};
@@ -33,19 +33,11 @@ impl RoughConductor {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
-        let Some(h) = half_vector(wo, wi) else {
+        let Some(r) = self.distr.reflection(wo, wi) else {
             return (Spectrum::ZERO, 0.0);
         };
-        let d = self.distr.d(h);
-        if d == 0.0 {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let g1o = self.distr.g1(wo, h);
-        let g1i = self.distr.g1(wi, h);
-        let inv = 1.0 / (4.0 * wo.z);
-        let pdf = d * g1o * inv;
-        let value =
-            self.specular_reflectance * fresnel(&self.fresnel, wo.dot(h)) * (d * g1o * g1i * inv);
+        let pdf = r.pdf;
+        let value = self.specular_reflectance * fresnel(&self.fresnel, r.cos_oh) * (pdf * r.g1_i);
         if !pdf.is_finite() || !is_finite3(value) {
             return (Spectrum::ZERO, 0.0);
         }

@@ -9,7 +9,7 @@
 
 use super::BsdfSample;
 use super::fresnel::fresnel_dielectric_r;
-use super::microfacet::{Ggx, half_vector};
+use super::microfacet::Ggx;
 use super::plastic_tables::RoughPlasticTable;
 use crate::math::{INV_PI, Spectrum, is_finite3, reflect_local};
 use crate::sampling::{cosine_hemisphere_pdf, square_to_cosine_hemisphere};
@@ -77,15 +77,10 @@ impl RoughPlastic {
         let p_spec = specular_probability(1.0 - t_o, self.specular_sampling_weight);
         let mut value = self.diffuse_scale() * (t_o * t_i * wi.z);
         let mut pdf = (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
-        if let Some(h) = half_vector(wo, wi) {
-            let d = self.distr.d(h);
-            if d > 0.0 {
-                let g1o = self.distr.g1(wo, h);
-                let inv = 1.0 / (4.0 * wo.z);
-                let f = fresnel_dielectric_r(wo.dot(h), self.eta);
-                value += Spectrum::splat(f * d * g1o * self.distr.g1(wi, h) * inv);
-                pdf += p_spec * (d * g1o * inv);
-            }
+        if let Some(r) = self.distr.reflection(wo, wi) {
+            let f = fresnel_dielectric_r(r.cos_oh, self.eta);
+            value += Spectrum::splat(f * (r.pdf * r.g1_i));
+            pdf += p_spec * r.pdf;
         }
         if !pdf.is_finite() || !is_finite3(value) {
             return (Spectrum::ZERO, 0.0);
