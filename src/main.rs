@@ -72,8 +72,8 @@ struct ProductArgs {
     /// in the paper. By default the paths of a pixel and of its neighbours
     /// in a row block reuse a first vertex's lobe and its child integrals
     /// while it matches theirs (same lobes within 30 %, normal and ω_o
-    /// within α/10); product then runs at 0.81–0.90× radiance guiding's
-    /// spp/s on staircase, about 0.87× on average (docs/results-reading.md).
+    /// within α/10); product then runs at 0.84–0.93× radiance guiding's
+    /// spp/s on staircase, about 0.88× on average (docs/results-reading.md).
     #[arg(long)]
     no_pixel_reuse: bool,
 }
