@@ -188,7 +188,7 @@ pub struct Reflection {
     pub pdf: f32,
     /// G1(wi, h); the BRDF times cos θ_i is F(wo·h) · pdf · G1(wi, h).
     pub g1_i: f32,
-    /// wo·h, the Fresnel cosine.
+    /// wo·ĥ, ĥ the normalised half vector: the Fresnel cosine.
     pub cos_oh: f32,
 }
 
