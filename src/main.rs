@@ -114,6 +114,11 @@ struct CompareArgs {
     /// are side-by-side measurements.
     #[arg(long)]
     side_by_side: bool,
+    /// Run every method as such throughout, as `render --no-plan` does: no
+    /// run falls back to path tracing or to cheaper weights, so the
+    /// methods themselves are compared.
+    #[arg(long)]
+    no_plan: bool,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -488,6 +493,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
         side_by_side: args.side_by_side,
+        use_plan: !args.no_plan,
         progress: true,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;

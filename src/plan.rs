@@ -14,9 +14,10 @@
 //! - no environment → no environment sampling (no envmap distribution is
 //!   built; the light list has no infinite light).
 //!
-//! The guided renderer may also drop guiding mid-run when its training
-//! iterations show it does not pay (see `guiding::train`); that decision is
-//! reported in the stats, next to this plan.
+//! The guided renderer may also drop guiding mid-run when a trial of its
+//! strategies measures path tracing with NEE more efficient (see
+//! `guiding::trial`); that decision is reported in the stats, next to this
+//! plan.
 
 use crate::bsdf::MaterialKind;
 use crate::guiding::product::CosineLobes;

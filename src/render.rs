@@ -165,7 +165,7 @@ impl PassPacer {
     /// at the known pace: about half the time left, at least one pass.
     /// Unlike [`next_call`](Self::next_call) it ignores snapshots (a late
     /// snapshot is taken at its real time) and keeps `n` while no pace is
-    /// known, for calls whose size matters (the weights trial).
+    /// known, for calls whose size matters (the strategy trial).
     pub fn bound_by_deadline(&self, n: u64, now: f64, deadline: Option<f64>) -> u64 {
         match (deadline, self.seconds_per_pass) {
             (Some(end), Some(s)) if s > 0.0 => half_of(n, end - now, s),
@@ -234,7 +234,8 @@ pub struct RenderOptions {
     /// (`guiding::pixel_reuse`); off: the paper's lobe per vertex.
     pub pixel_reuse: bool,
     /// Follow the per-scene plan (and drop guiding where it does not pay).
-    /// Off only for measuring what the plan saves.
+    /// Off for measuring what the plan saves, and for comparing the guided
+    /// methods as such.
     pub use_plan: bool,
     /// Guided methods: c in the SD-tree's spatial split threshold c·√(2^k);
     /// `None`: scaled to the image size, see

@@ -48,6 +48,7 @@ fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
         product_vertices: 1,
         pixel_reuse: true,
         side_by_side: false,
+        use_plan: true,
         progress: false,
     }
 }
@@ -82,9 +83,15 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         seconds: 0.6,
         runs: 2,
         guided_roulette: Some((RouletteMode::Off, 5.0)),
+        use_plan: false,
         ..compare_options(methods.clone(), &dir)
     };
     let outcome = run_compare(&scene, &reference, &opts).unwrap();
+    assert!(
+        outcome.summary.contains("Per-scene plan: off"),
+        "{}",
+        outcome.summary
+    );
     let csv = std::fs::read_to_string(dir.join("curves.csv")).unwrap();
     assert!(csv.starts_with(CSV_HEADER));
     let rows = parse_csv(&csv).unwrap();
@@ -265,7 +272,8 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
     assert!(
         outcome
             .summary
-            .contains("the methods of a run side by side on 1 of 2 threads each"),
+            .contains("the methods of a run side by side on 1 of 2 threads each")
+            && outcome.summary.contains("Per-scene plan: on"),
         "{}",
         outcome.summary
     );

@@ -42,6 +42,9 @@ pub struct CompareOptions {
     /// Render the methods of a run at the same time, each on an equal share
     /// of the threads, instead of one after the other.
     pub side_by_side: bool,
+    /// Follow the per-scene plan (its strategy trial may hand a guided run
+    /// to path tracing); off: every method runs as such throughout.
+    pub use_plan: bool,
     pub progress: bool,
 }
 
@@ -226,6 +229,7 @@ fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -
         cosine_lobes: opts.cosine_lobes,
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
+        use_plan: opts.use_plan,
         ..Default::default()
     }
 }
@@ -350,7 +354,16 @@ fn summary_markdown(
             format!("{}: {nee}, roulette {rr}{cosine}", method_name(m))
         })
         .collect();
-    let _ = writeln!(s, "Path settings: {}.\n", settings.join("; "));
+    let _ = writeln!(
+        s,
+        "Path settings: {}. Per-scene plan: {}.\n",
+        settings.join("; "),
+        if opts.use_plan {
+            "on (a guided run may fall back to path tracing)"
+        } else {
+            "off (every method as such throughout)"
+        }
+    );
     let _ = writeln!(
         s,
         "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"

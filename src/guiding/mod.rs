@@ -11,7 +11,9 @@
 //! - [`adam`]: the learned BSDF-sampling fraction;
 //! - [`adrrs`]: adjoint-driven Russian roulette;
 //! - [`schedule`]: the training schedule and the inverse-variance
-//!   combination of iterations.
+//!   combination of iterations;
+//! - [`trial`]: the plan's measured choice between the guide's weights and
+//!   path tracing.
 //!
 //! Integration, per render:
 //! ```text
@@ -48,3 +50,4 @@ pub mod record;
 pub mod schedule;
 pub mod sdtree;
 pub mod train;
+pub mod trial;

@@ -7,6 +7,7 @@ use super::guide::{SdGuide, WeightModel};
 use super::record::{RecordStats, passes_within_record_budget, record_pass};
 use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
 use super::sdtree::{SdTree, SdTreeConfig};
+use super::trial::{Strategy, StrategyTrial, TRIAL_PASSES};
 use crate::film::image::{Film, Image};
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::{PathSettings, RouletteMode};
@@ -17,9 +18,11 @@ use crate::render::{Budget, PassPacer, RenderClock, RenderOptions, SnapshotPlan}
 use crate::scene::Scene;
 use serde::Serialize;
 
-/// The guide-vs-unguided efficiency check runs after this training
-/// iteration (2^k spp): earlier, the guide has seen too few paths to judge it.
-const FALLBACK_CHECK_ITERATION: u32 = 4;
+/// The strategy trial (`super::trial`) runs in this training iteration
+/// (2^k spp, its length [`TRIAL_PASSES`]): earlier, the guide has seen too
+/// few paths to judge it.
+const STRATEGY_CHECK_ITERATION: u32 = 4;
+const _: () = assert!(1 << STRATEGY_CHECK_ITERATION == TRIAL_PASSES);
 
 #[derive(Clone, Debug, Serialize)]
 pub struct IterationSummary {
@@ -50,7 +53,8 @@ pub struct GuidingStats {
     /// Non-empty when guiding was dropped because it did not pay.
     pub fallback: String,
     /// The measured comparison of the model's child weights with its
-    /// cheaper alternative (product vs radiance weights), when one ran.
+    /// cheaper alternative (product vs radiance weights), when one ran, or
+    /// the report of a strategy trial the budget cut short.
     pub weights_check: String,
 }
 
@@ -64,7 +68,7 @@ pub struct GuidedOutput {
 }
 
 /// The pooled per-pixel mean of several films (all samples of all films).
-fn pooled_mean(films: &[&Film]) -> Vec<Spectrum> {
+pub(super) fn pooled_mean(films: &[&Film]) -> Vec<Spectrum> {
     let n: u32 = films.iter().map(|f| f.spp).sum();
     let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
     let len = films.first().map_or(0, |f| f.sum.len());
@@ -175,105 +179,11 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
     ))
 }
 
-/// Compares the efficiency (1 / (variance per sample × seconds per sample))
-/// of the last training iteration with that of iteration 0, which samples
-/// the BSDF only (the guide is still empty). Variances are measured about
-/// the pooled mean of all iterations so far, which works at 1 spp. If the
-/// guided iteration is less efficient than the unguided one — recording
-/// overhead included on both sides — guiding does not pay here.
-fn guiding_does_not_pay(
-    films: &[&Film],
-    done: &[IterationSummary],
-    last_seconds: f64,
-) -> Option<String> {
-    let (first, last) = (films.first()?, films.last()?);
-    let first_seconds = done.first()?.seconds;
-    let mu = pooled_mean(films);
-    let (e0, e1) = (
-        efficiency(first, first_seconds, &mu),
-        efficiency(last, last_seconds, &mu),
-    );
-    (e0.is_finite() && e1.is_finite() && e1 < e0).then(|| {
-        format!(
-            "guiding does not pay here (trained efficiency {:.3e} < unguided {:.3e}): the rest of the budget is rendered by path tracing with NEE",
-            e1, e0
-        )
-    })
-}
-
 /// Efficiency 1 / (variance per sample × seconds per sample) of `film`
 /// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
 /// it is 1 / (variance of the film's mean × seconds).
-fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
+pub(super) fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
     1.0 / (iteration_variance(film, mu).0 * seconds)
-}
-
-/// Calls of the comparison iteration alternate between the model's child
-/// weights (index 0) and the cheaper ones (index 1), each into its own film
-/// with its own render time (recording excluded: it costs both the same).
-/// Each call renders [`TRIAL_CALL_PASSES`] passes pixel-major, as the rest
-/// of the run does, so each side is timed with the pixel-major reuse it
-/// will have (product guiding's first lobe, `guiding::pixel_reuse`).
-struct WeightsTrial {
-    films: [Film; 2],
-    seconds: [f64; 2],
-}
-
-/// Passes of the weights trial, half for each side (the fallback-check
-/// iteration's length).
-const TRIAL_PASSES: u32 = 1 << FALLBACK_CHECK_ITERATION;
-
-/// Passes per call of the weights trial: four calls, ABAB.
-const TRIAL_CALL_PASSES: u32 = TRIAL_PASSES / 4;
-
-impl WeightsTrial {
-    /// The side the next call renders: the one with fewer passes so far.
-    fn next_side(&self) -> usize {
-        (self.films[0].spp > self.films[1].spp) as usize
-    }
-
-    fn passes(&self) -> u32 {
-        self.films[0].spp + self.films[1].spp
-    }
-
-    /// Whether the cheaper weights measured more efficient, and the report.
-    /// Variances are taken about the pooled mean of every film so far.
-    fn decide<M: WeightModel>(
-        &self,
-        done: &[Film],
-        model: &M,
-        cheaper: Option<&M>,
-    ) -> (bool, String) {
-        let mut all: Vec<&Film> = done.iter().collect();
-        all.extend(&self.films);
-        let mu = pooled_mean(&all);
-        let eff = [0, 1].map(|i| efficiency(&self.films[i], self.seconds[i], &mu));
-        let cheaper_wins = eff[1] > eff[0];
-        let note = format!(
-            "{} weights {} (efficiency {:.3e}, {} weights {:.3e}, measured on {} + {} spp)",
-            model.name(),
-            if cheaper_wins {
-                "do not pay here: the rest of the run uses the cheaper"
-            } else {
-                "pay here; kept over the cheaper"
-            },
-            eff[0],
-            cheaper.map_or("", |c| c.name()),
-            eff[1],
-            self.films[0].spp,
-            self.films[1].spp,
-        );
-        (cheaper_wins, note)
-    }
-
-    /// The chosen side's film, its render seconds and both sides' render
-    /// seconds.
-    fn into_chosen(self, cheaper: bool) -> (Film, f64, f64) {
-        let i = cheaper as usize;
-        let both = self.seconds[0] + self.seconds[1];
-        let [a, b] = self.films;
-        (if cheaper { b } else { a }, self.seconds[i], both)
-    }
 }
 
 /// Renders with an SD-tree guide whose child weights come from `model`.
@@ -304,20 +214,23 @@ pub fn render_guided<M: WeightModel>(
     // Records a training pass produced in the last training call.
     let mut records_per_pass: Option<f64> = None;
     let mut pass = 0u64;
-    // Set when the training iterations show that guiding does not pay.
+    // Set when the strategy trial measured path tracing more efficient.
     let mut fallback = String::new();
-    // The cheaper child weights, when the plan may fall back to them; the
-    // comparison runs in the fallback-check iteration.
+    // The cheaper child weights, when the plan may fall back to them.
     let cheaper = if opts.use_plan && opts.bsdf_fraction.is_none() {
         model.cheaper()
     } else {
         None
     };
+    let cheaper_name = cheaper.as_ref().map(|c| c.name());
     let mut use_cheaper = false;
     let mut weights_check = String::new();
-    let mut trial: Option<WeightsTrial> = None;
+    // With the plan, one trial measures the strategies against each other
+    // (`super::trial`).
+    let mut trial: Option<StrategyTrial> = None;
+    let mut strategy_decided = !opts.use_plan;
     // Kept across iterations: the final iteration's first call then knows
-    // the pace, so a deadline bounds it (and the weights trial's calls).
+    // the pace, so a deadline bounds it (and the trial's calls).
     let mut pacer = PassPacer::default();
     let total_spp =
         |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
@@ -349,21 +262,18 @@ pub fn render_guided<M: WeightModel>(
             None
         };
         let mut film = Film::new(w, h);
-        // The weights trial runs once: in the fallback-check iteration, or
-        // at the start of the final one when training ended before it.
-        if cheaper.is_some()
-            && weights_check.is_empty()
-            && trial.is_none()
-            && (!training || iteration == FALLBACK_CHECK_ITERATION)
-        {
-            trial = Some(WeightsTrial {
-                films: [Film::new(w, h), Film::new(w, h)],
-                seconds: [0.0; 2],
-            });
+        // The trial runs once: in the check iteration, or at the start of
+        // the final one when training ended before it.
+        // (A final iteration of a sample budget no longer than the trial
+        // leaves nothing to decide for.)
+        let check_here = match target {
+            _ if training => iteration == STRATEGY_CHECK_ITERATION,
+            Budget::Spp(n) => n > TRIAL_PASSES,
+            Budget::Seconds(_) => true,
+        };
+        if !strategy_decided && trial.is_none() && check_here {
+            trial = Some(StrategyTrial::new(w, h, cheaper.is_some()));
         }
-        // The share of this iteration's film that the unguided check should
-        // judge: the chosen weights' half when a trial ran.
-        let mut chosen_share: Option<(Film, f64, f64)> = None;
         loop {
             match target {
                 Budget::Spp(n) if film.spp >= n => break,
@@ -379,16 +289,25 @@ pub fn render_guided<M: WeightModel>(
                 Budget::Spp(n) => (Some((n - film.spp) as u64), None),
                 Budget::Seconds(end) => (None, Some(end)),
             };
-            let n = match &trial {
+            let (strategy, n) = match &trial {
                 Some(t) => {
-                    let trial_left = TRIAL_PASSES.saturating_sub(t.passes()).max(1);
-                    let n = TRIAL_CALL_PASSES.min(trial_left) as u64;
+                    let (strategy, n) = t.next_call();
                     // A deadline bounds trial calls too: at four passes each
                     // they overran a slow scene's budget by seconds.
-                    let n = pacer.bound_by_deadline(n, call_start, deadline);
-                    passes_left.map_or(n, |left| n.min(left))
+                    let n = pacer.bound_by_deadline(n as u64, call_start, deadline);
+                    (strategy, passes_left.map_or(n, |left| n.min(left)))
                 }
-                None => pacer.next_call(call_start, passes_left, deadline, snapshots),
+                None => {
+                    let n = pacer.next_call(call_start, passes_left, deadline, snapshots);
+                    let strategy = if !fallback.is_empty() {
+                        Strategy::Unguided
+                    } else if use_cheaper {
+                        Strategy::Cheaper
+                    } else {
+                        Strategy::Model
+                    };
+                    (strategy, n)
+                }
             };
             let n = if training {
                 // A path records at most one vertex per segment; without a
@@ -400,10 +319,12 @@ pub fn render_guided<M: WeightModel>(
                 n
             };
             let passes = pass..pass + n;
-            if fallback.is_empty() {
-                let alternate = trial.as_ref().is_some_and(|t| t.next_side() == 1);
-                let active = match &cheaper {
-                    Some(c) if use_cheaper || alternate => c,
+            // Each call's film and render time: recording the guided
+            // calls' paths into the tree comes after, as it would cost any
+            // guided strategy alike, and a fallback's rendering has none.
+            let (call_film, render_seconds) = if strategy != Strategy::Unguided {
+                let active = match (&cheaper, strategy) {
+                    (Some(c), Strategy::Cheaper) => c,
                     _ => model,
                 };
                 let guide = SdGuide {
@@ -420,28 +341,17 @@ pub fn render_guided<M: WeightModel>(
                     passes,
                     pixel_estimates.as_deref(),
                 );
-                if let Some(t) = trial.as_mut() {
-                    let i = alternate as usize;
-                    t.films[i].merge(&out.film);
-                    t.seconds[i] += clock.seconds() - call_start;
-                }
-                film.merge(&out.film);
-                if trial.as_ref().is_some_and(|t| t.passes() >= TRIAL_PASSES) {
-                    let t = trial.take().expect("checked");
-                    let (cheaper_wins, note) = t.decide(&films, model, cheaper.as_ref());
-                    use_cheaper = cheaper_wins;
-                    weights_check = note;
-                    chosen_share = Some(t.into_chosen(cheaper_wins));
-                }
+                let render_seconds = clock.seconds() - call_start;
                 counters.add(&out.counters);
                 if training {
                     let call_records = record_pass(&mut tree, &out.recorders);
                     records_per_pass = Some(call_records.total() as f64 / n as f64);
                     records.merge(&call_records);
                 }
+                (out.film, render_seconds)
             } else {
-                // The cheaper strategy is plain path tracing at its best:
-                // with NEE and classic roulette.
+                // The fallback is plain path tracing at its best: with NEE
+                // and classic roulette.
                 let unguided = PathSettings {
                     nee: true,
                     roulette: RouletteMode::Classic,
@@ -449,8 +359,20 @@ pub fn render_guided<M: WeightModel>(
                     ..opts.path
                 };
                 let out = render_passes(scene, &NoGuide, &unguided, opts.seed, passes, None);
-                film.merge(&out.film);
                 counters.add(&out.counters);
+                (out.film, clock.seconds() - call_start)
+            };
+            film.merge(&call_film);
+            if let Some(t) = trial.as_mut() {
+                t.record(&call_film, render_seconds);
+                if t.finished() {
+                    let d = t.decide(&films, model.name(), cheaper_name);
+                    use_cheaper = d.strategy == Strategy::Cheaper;
+                    weights_check = d.weights_note;
+                    fallback = d.fallback_note;
+                    strategy_decided = true;
+                    trial = None;
+                }
             }
             pass += n;
             let now = clock.seconds();
@@ -495,20 +417,6 @@ pub fn render_guided<M: WeightModel>(
                 mean_variance,
             },
         );
-        // The chosen half is charged its render time and half of the
-        // iteration's other costs (recording, tree refinement).
-        let checked: (&Film, f64) = match &chosen_share {
-            Some((f, own, both)) => (f, own + (seconds - both).max(0.0) / 2.0),
-            None => (&film, seconds),
-        };
-        if opts.use_plan && training && iteration >= FALLBACK_CHECK_ITERATION && fallback.is_empty()
-        {
-            let mut all: Vec<&Film> = films.iter().collect();
-            all.push(checked.0);
-            if let Some(reason) = guiding_does_not_pay(&all, &summaries, checked.1) {
-                fallback = reason;
-            }
-        }
         summaries.push(IterationSummary {
             iteration,
             spp: film.spp,
@@ -521,13 +429,7 @@ pub fn render_guided<M: WeightModel>(
     }
 
     if let Some(t) = trial {
-        weights_check = format!(
-            "weights check unfinished: the budget ended after {} + {} spp alternating {} and {} weights",
-            t.films[0].spp,
-            t.films[1].spp,
-            model.name(),
-            cheaper.as_ref().map_or("", |c| c.name()),
-        );
+        weights_check = t.unfinished_note(model.name(), cheaper_name);
     }
     let refs: Vec<&Film> = films.iter().collect();
     let (image, variance, weights) = combine(&refs).unwrap_or_else(|| {
