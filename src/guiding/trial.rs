@@ -9,7 +9,9 @@
 //!   drops guiding exactly when guiding loses to what replaces it.
 //!
 //! Every trial pass is an unbiased estimate of the same pixels, so all of
-//! them also join the iteration's film: a trial costs no samples.
+//! them also join the iteration's film: a trial costs no samples. (The
+//! unguided passes record nothing, so a training iteration that holds the
+//! trial trains the guide on 12 of its 16 passes.)
 //!
 //! Efficiency is 1 / (variance of the film's mean × render seconds); the
 //! variance is measured about the pooled mean of every film so far, which
