@@ -223,7 +223,9 @@ pub fn render_guided<M: WeightModel>(
         None
     };
     let cheaper_name = cheaper.as_ref().map(|c| c.name());
-    let mut use_cheaper = false;
+    // What renders outside the trial: the model's weights until the trial
+    // decides otherwise.
+    let mut chosen = Strategy::Model;
     let mut weights_check = String::new();
     // With the plan, one trial measures the strategies against each other
     // (`super::trial`).
@@ -297,17 +299,10 @@ pub fn render_guided<M: WeightModel>(
                     let n = pacer.bound_by_deadline(n as u64, call_start, deadline);
                     (strategy, passes_left.map_or(n, |left| n.min(left)))
                 }
-                None => {
-                    let n = pacer.next_call(call_start, passes_left, deadline, snapshots);
-                    let strategy = if !fallback.is_empty() {
-                        Strategy::Unguided
-                    } else if use_cheaper {
-                        Strategy::Cheaper
-                    } else {
-                        Strategy::Model
-                    };
-                    (strategy, n)
-                }
+                None => (
+                    chosen,
+                    pacer.next_call(call_start, passes_left, deadline, snapshots),
+                ),
             };
             let n = if training {
                 // A path records at most one vertex per segment; without a
@@ -367,7 +362,7 @@ pub fn render_guided<M: WeightModel>(
                 t.record(&call_film, render_seconds);
                 if t.finished() {
                     let d = t.decide(&films, model.name(), cheaper_name);
-                    use_cheaper = d.strategy == Strategy::Cheaper;
+                    chosen = d.strategy;
                     weights_check = d.weights_note;
                     fallback = d.fallback_note;
                     strategy_decided = true;

@@ -8,6 +8,10 @@
 //!   fallback renders, measured as it would run (no recording), so the run
 //!   drops guiding exactly when guiding loses to what replaces it.
 //!
+//! Each call renders its passes pixel-major, as the rest of the run does,
+//! so each side is timed with the reuse it will have (product guiding's
+//! first lobe, `guiding::pixel_reuse`).
+//!
 //! Every trial pass is an unbiased estimate of the same pixels, so all of
 //! them also join the iteration's film: a trial costs no samples. (The
 //! unguided passes record nothing, so a training iteration that holds the
