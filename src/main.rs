@@ -3,7 +3,7 @@
 use clap::{Args, Parser, Subcommand};
 use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::{read_image, write_rgb};
-use ltcguide::film::metrics::{mae, relmse};
+use ltcguide::film::metrics::{mae, relmse, relmse_tail};
 use ltcguide::film::png_io::write_png;
 use ltcguide::guiding::product::CosineLobes;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
@@ -25,7 +25,8 @@ struct Cli {
 enum Command {
     /// Render a scene to an EXR and a PNG preview.
     Render(RenderArgs),
-    /// Print MAE and relMSE of an image against a reference (DESIGN.md §6).
+    /// Print MAE and relMSE of an image against a reference (DESIGN.md §6), and the share of
+    /// relMSE in the worst 0.1 % of pixels with relMSE over the rest (fireflies or broad noise).
     Error { image: PathBuf, reference: PathBuf },
     /// Print what a scene contains.
     Info { scene: PathBuf },
@@ -541,11 +542,21 @@ fn cmd_fit_ltc(out_dir: PathBuf, resolution: usize, threads: usize) -> Result<()
     Ok(())
 }
 
+/// The worst pixels `error` reports the relMSE share of: 0.1 %.
+const WORST_PIXEL_FRACTION: f64 = 1e-3;
+
 fn cmd_error(image: &Path, reference: &Path) -> Result<(), String> {
     let img = read_image(image)?;
     let reference = read_image(reference)?;
     println!("mae {:.6e}", mae(&img, &reference)?);
     println!("relmse {:.6e}", relmse(&img, &reference)?);
+    // How much of relMSE a few firefly pixels carry (see RelmseTail).
+    let tail = relmse_tail(&img, &reference, WORST_PIXEL_FRACTION)?;
+    println!(
+        "relmse_worst_0.1%_share {:.4} ({} pixels)",
+        tail.worst_share, tail.worst_pixels
+    );
+    println!("relmse_without_worst_0.1% {:.6e}", tail.without_worst);
     Ok(())
 }
 
