@@ -2,14 +2,20 @@
 
 use super::image::Image;
 
+/// relMSE's term of one channel: (I − R)² / (R² + 1e-2).
+#[inline]
+fn relative_squared_error(i: f32, r: f32) -> f64 {
+    let (iv, rv) = (i as f64, r as f64);
+    (iv - rv).powi(2) / (rv * rv + 1e-2)
+}
+
 /// relMSE = mean over pixels and channels of (I − R)² / (R² + 1e-2).
 pub fn relmse(image: &Image, reference: &Image) -> Result<f64, String> {
     check_sizes(image, reference)?;
     let mut acc = 0.0f64;
     for (i, r) in image.pixels.iter().zip(&reference.pixels) {
         for c in 0..3 {
-            let (iv, rv) = (i[c] as f64, r[c] as f64);
-            acc += (iv - rv).powi(2) / (rv * rv + 1e-2);
+            acc += relative_squared_error(i[c], r[c]);
         }
     }
     Ok(acc / (3 * image.pixels.len()) as f64)
@@ -54,25 +60,22 @@ pub fn relmse_tail(image: &Image, reference: &Image, fraction: f64) -> Result<Re
         .pixels
         .iter()
         .zip(&reference.pixels)
-        .map(|(i, r)| {
-            (0..3)
-                .map(|c| {
-                    let (iv, rv) = (i[c] as f64, r[c] as f64);
-                    (iv - rv).powi(2) / (rv * rv + 1e-2)
-                })
-                .sum()
-        })
+        .map(|(i, r)| (0..3).map(|c| relative_squared_error(i[c], r[c])).sum())
         .collect();
     let n = per_pixel.len();
     if n < 2 {
         return Err("an image of one pixel has no tail".into());
     }
     let worst = ((fraction * n as f64).ceil() as usize).clamp(1, n - 1);
-    // Largest errors first; NaN (a broken image) sorts as the worst.
+    // Largest errors first.
     per_pixel.select_nth_unstable_by(worst - 1, |a, b| b.total_cmp(a));
     let worst_sum: f64 = per_pixel[..worst].iter().sum();
     let rest_sum: f64 = per_pixel[worst..].iter().sum();
     let total = worst_sum + rest_sum;
+    // A NaN or Inf pixel has no share to report (its relMSE is NaN or Inf too).
+    if !total.is_finite() {
+        return Err("the image or the reference holds NaN or Inf pixels".into());
+    }
     Ok(RelmseTail {
         worst_pixels: worst,
         worst_share: if total > 0.0 { worst_sum / total } else { 0.0 },
@@ -160,5 +163,7 @@ mod tests {
         assert!(relmse_tail(&image, &reference, 0.0).is_err());
         assert!(relmse_tail(&image, &reference, f64::NAN).is_err());
         assert!(relmse_tail(&image, &reference, 1.0).is_err());
+        image.pixels[3] = Vec3::new(f32::NAN, 1.0, 1.0);
+        assert!(relmse_tail(&image, &reference, 1e-3).is_err());
     }
 }
