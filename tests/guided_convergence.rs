@@ -320,7 +320,7 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
     eprintln!("{}\n{}", guiding.weights_check, guiding.fallback);
     assert!(
         guiding.weights_check.starts_with("product weights")
-            && guiding.weights_check.contains("measured on 6 + 6 spp"),
+            && guiding.weights_check.contains("measured on 3 + 3 spp"),
         "{}",
         guiding.weights_check
     );
@@ -329,7 +329,7 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
             || guiding
                 .fallback
                 .starts_with("guiding does not pay here (path tracing with NEE")
-                && guiding.fallback.contains("on 4 spp"),
+                && guiding.fallback.contains("on 2 spp"),
         "{}",
         guiding.fallback
     );

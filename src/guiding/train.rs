@@ -19,9 +19,13 @@ use crate::scene::Scene;
 use serde::Serialize;
 
 /// The strategy trial (`super::trial`) runs in this training iteration
-/// (2^k spp, its length [`TRIAL_PASSES`]): earlier, the guide has seen too
-/// few paths to judge it.
-const STRATEGY_CHECK_ITERATION: u32 = 4;
+/// (2^k spp, its length [`TRIAL_PASSES`]), after 7 spp of training, with a
+/// guide learned from the 4 spp before: earlier, the guide has seen too few
+/// paths to judge it; later (iteration 4, sessions 15–16), the guided
+/// passes before a fallback cost runs that fall back more than a less
+/// trained guide costs the few that keep guiding (docs/results-reading.md,
+/// session 17).
+const STRATEGY_CHECK_ITERATION: u32 = 3;
 const _: () = assert!(1 << STRATEGY_CHECK_ITERATION == TRIAL_PASSES);
 
 #[derive(Clone, Debug, Serialize)]

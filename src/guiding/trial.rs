@@ -15,7 +15,7 @@
 //! Every trial pass is an unbiased estimate of the same pixels, so all of
 //! them also join the iteration's film: a trial costs no samples. (The
 //! unguided passes record nothing, so a training iteration that holds the
-//! trial trains the guide on 12 of its 16 passes.)
+//! trial trains the guide on 6 of its 8 passes.)
 //!
 //! Efficiency is 1 / (variance of the film's mean × render seconds); the
 //! variance is measured about the pooled mean of every film so far, which
@@ -38,9 +38,9 @@ pub enum Strategy {
 }
 
 /// Passes of a whole trial: the check iteration's length.
-pub const TRIAL_PASSES: u32 = 16;
+pub const TRIAL_PASSES: u32 = 8;
 /// The unguided side's share of them; the guided sides split the rest.
-pub const UNGUIDED_PASSES: u32 = 4;
+pub const UNGUIDED_PASSES: u32 = 2;
 /// Calls per side, interleaved round robin, so that a drift of the host's
 /// speed during the trial reaches every side alike.
 const CALLS_PER_SIDE: u32 = 2;
@@ -50,7 +50,8 @@ struct Side {
     film: Film,
     seconds: f64,
     calls: u32,
-    passes_per_call: u32,
+    /// The side's share of the trial, split over its calls.
+    passes: u32,
 }
 
 /// The outcome of a finished trial.
@@ -92,7 +93,7 @@ impl StrategyTrial {
                     film: Film::new(width, height),
                     seconds: 0.0,
                     calls: 0,
-                    passes_per_call: (passes / CALLS_PER_SIDE).max(1),
+                    passes,
                 }
             })
             .collect();
@@ -106,7 +107,10 @@ impl StrategyTrial {
     /// The strategy and pass count of the next call.
     pub fn next_call(&self) -> (Strategy, u32) {
         let s = self.side();
-        (s.strategy, s.passes_per_call)
+        // As even a split as whole passes allow (3 passes: 1, then 2).
+        let share = |c: u32| s.passes * c / CALLS_PER_SIDE;
+        let n = share(s.calls + 1) - share(s.calls);
+        (s.strategy, n.max(1))
     }
 
     /// Adds the next call's film and render time to its side.
@@ -246,16 +250,18 @@ mod tests {
     fn sides_alternate_and_split_the_trial_passes() {
         let mut t = StrategyTrial::new(8, 8, true);
         let mut order = Vec::new();
-        let mut passes = 0;
+        let mut calls = Vec::new();
         while !t.finished() {
             let (s, n) = t.next_call();
             order.push(s);
-            passes += n;
+            calls.push(n);
             t.record(&Film::new(8, 8), 0.0);
         }
         use Strategy::*;
         assert_eq!(order, [Model, Cheaper, Unguided, Model, Cheaper, Unguided]);
-        assert_eq!(passes, TRIAL_PASSES);
+        // 8 passes: 2 of path tracing, 3 per guided side as 1 + 2.
+        assert_eq!(calls, [1, 1, 1, 2, 2, 1]);
+        assert_eq!(calls.iter().sum::<u32>(), TRIAL_PASSES);
         let t = StrategyTrial::new(8, 8, false);
         assert_eq!(t.next_call(), (Model, (TRIAL_PASSES - UNGUIDED_PASSES) / 2));
     }
@@ -290,7 +296,7 @@ mod tests {
         });
         assert_eq!(d.strategy, Strategy::Cheaper);
         assert!(d.weights_note.contains("do not pay"), "{}", d.weights_note);
-        assert!(d.weights_note.contains("measured on 6 + 6 spp"));
+        assert!(d.weights_note.contains("measured on 3 + 3 spp"));
         assert!(d.fallback_note.is_empty());
         // Both weights lose to path tracing: the report names the better.
         let (_, d) = run(true, |s| match s {
