@@ -7,11 +7,11 @@
 # Usage: scripts/results.sh [SECONDS_PER_RUN] [RUNS] [ABLATION_SPP] [NEE] [ABLATION_SCENES] [PLAN]
 #   NEE: paper (pt with NEE, guided methods without, as in the paper),
 #        all (every method with NEE) or none; default paper.
-#   ABLATION_SCENES: space-separated pack scenes for the ablation; default all.
+#   ABLATION_SCENES: space-separated pack scenes for the ablation; default
+#        all; none skips the ablation.
 #   PLAN: on (the defaults: a guided run may hand the rest of its budget to
 #        path tracing when its strategy trial measures that more efficient)
 #        or off (every method as such throughout); default on.
-#   ABLATION_SCENES=none skips the ablation.
 # Environment: RESULTS_PAGE names the page, docs/$RESULTS_PAGE.md with its
 # files under docs/$RESULTS_PAGE/ (default results), so a second study, e.g.
 # at a longer budget, does not overwrite the first.
