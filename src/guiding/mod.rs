@@ -13,7 +13,8 @@
 //! - [`schedule`]: the training schedule and the inverse-variance
 //!   combination of iterations;
 //! - [`trial`]: the plan's measured choice between the guide's weights and
-//!   path tracing.
+//!   path tracing;
+//! - [`fallback_image`]: what a run that falls back to path tracing images.
 //!
 //! Integration, per render:
 //! ```text
@@ -34,7 +35,8 @@
 //!     //   record_pass(&mut tree, &buffers);
 //!     // after the iteration: tree.refine(k); schedule.report(step, report);
 //!   } } }
-//! // final image: train::combine, all iterations weighted by inverse variance.
+//! // final image: train::combine, all iterations weighted by inverse variance
+//! // (after a fallback to path tracing: its passes alone, fallback_image).
 //! ```
 
 pub mod adam;
@@ -42,6 +44,7 @@ pub mod adrrs;
 pub mod aov;
 pub mod build;
 pub mod descent;
+pub mod fallback_image;
 pub mod guide;
 pub mod pixel_reuse;
 pub mod product;

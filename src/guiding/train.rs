@@ -2,7 +2,10 @@
 //! iterations of 1, 2, 4, … passes that record and refine the guide, a final
 //! iteration with the rest of the budget, and the inverse-variance
 //! combination of the iterations' images.
+//! A run whose strategy trial falls back to path tracing images path
+//! tracing's passes alone (`super::fallback_image`).
 
+use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
 use super::record::{RecordStats, passes_within_record_budget, record_pass};
 use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
@@ -36,6 +39,9 @@ pub struct IterationSummary {
     pub training: bool,
     /// Mean variance of the iteration's pixel estimates (unclamped).
     pub mean_variance: f64,
+    /// Passes of the iteration in the image: all, or after a fallback its
+    /// path-tracing passes only.
+    pub image_spp: u32,
     /// Weight of the iteration in the final combination.
     pub weight: f64,
 }
@@ -56,6 +62,8 @@ pub struct GuidingStats {
     pub adam_rejected: u64,
     /// Non-empty when guiding was dropped because it did not pay.
     pub fallback: String,
+    /// Guided passes rendered before a fallback and left out of the image.
+    pub left_out_spp: u32,
     /// The measured comparison of the model's child weights with its
     /// cheaper alternative (product vs radiance weights), when one ran, or
     /// the report of a strategy trial the budget cut short.
@@ -183,6 +191,19 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
     ))
 }
 
+/// The films the image combines: every iteration's (with the current one,
+/// when given), or after a fallback the one film of path tracing's passes.
+fn image_films<'a>(
+    films: &'a [Film],
+    current: Option<&'a Film>,
+    fallback_image: &'a Option<FallbackImage>,
+) -> Vec<&'a Film> {
+    match fallback_image {
+        Some(image) => vec![image.film()],
+        None => films.iter().chain(current).collect(),
+    }
+}
+
 /// Efficiency 1 / (variance per sample × seconds per sample) of `film`
 /// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
 /// it is 1 / (variance of the film's mean × seconds).
@@ -235,6 +256,7 @@ pub fn render_guided<M: WeightModel>(
     // (`super::trial`).
     let mut trial: Option<StrategyTrial> = None;
     let mut strategy_decided = !opts.use_plan;
+    let mut fallback_image: Option<FallbackImage> = None;
     // Kept across iterations: the final iteration's first call then knows
     // the pace, so a deadline bounds it (and the trial's calls).
     let mut pacer = PassPacer::default();
@@ -362,10 +384,16 @@ pub fn render_guided<M: WeightModel>(
                 (out.film, clock.seconds() - call_start)
             };
             film.merge(&call_film);
+            if let Some(image) = fallback_image.as_mut() {
+                image.add(&call_film);
+            }
             if let Some(t) = trial.as_mut() {
                 t.record(&call_film, render_seconds);
                 if t.finished() {
                     let d = t.decide(&films, model.name(), cheaper_name);
+                    if d.strategy == Strategy::Unguided {
+                        fallback_image = Some(FallbackImage::new(t.unguided_film(), films.len()));
+                    }
                     chosen = d.strategy;
                     weights_check = d.weights_note;
                     fallback = d.fallback_note;
@@ -379,8 +407,7 @@ pub fn render_guided<M: WeightModel>(
             if snapshots.due(now) {
                 let spp = total_spp(&films, &film);
                 clock.excluding(|| {
-                    let mut all: Vec<&Film> = films.iter().collect();
-                    all.push(&film);
+                    let all = image_films(&films, Some(&film), &fallback_image);
                     if let Some((image, _, _)) = combine(&all) {
                         snapshots.take(now, spp, image);
                     }
@@ -422,6 +449,7 @@ pub fn render_guided<M: WeightModel>(
             seconds,
             training,
             mean_variance,
+            image_spp: film.spp,
             weight: 0.0,
         });
         films.push(film);
@@ -430,7 +458,7 @@ pub fn render_guided<M: WeightModel>(
     if let Some(t) = trial {
         weights_check = t.unfinished_note(model.name(), cheaper_name);
     }
-    let refs: Vec<&Film> = films.iter().collect();
+    let refs = image_films(&films, None, &fallback_image);
     let (image, variance, weights) = combine(&refs).unwrap_or_else(|| {
         (
             Image {
@@ -442,9 +470,15 @@ pub fn render_guided<M: WeightModel>(
             Vec::new(),
         )
     });
-    for (s, wgt) in summaries.iter_mut().zip(&weights) {
-        s.weight = *wgt;
-    }
+    let left_out_spp = match &fallback_image {
+        Some(f) => f.account(&mut summaries, &films),
+        None => {
+            for (s, wgt) in summaries.iter_mut().zip(&weights) {
+                s.weight = *wgt;
+            }
+            0
+        }
+    };
     let ts = tree.stats();
     let stats = GuidingStats {
         iterations: summaries,
@@ -460,12 +494,13 @@ pub fn render_guided<M: WeightModel>(
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
         fallback,
+        left_out_spp,
         weights_check,
     };
     GuidedOutput {
         image,
         variance,
-        spp: films.iter().map(|f| f.spp).sum(),
+        spp: refs.iter().map(|f| f.spp).sum(),
         counters,
         stats,
         tree,

@@ -13,9 +13,10 @@
 //! first lobe, `guiding::pixel_reuse`).
 //!
 //! Every trial pass is an unbiased estimate of the same pixels, so all of
-//! them also join the iteration's film: a trial costs no samples. (The
-//! unguided passes record nothing, so a training iteration that holds the
-//! trial trains the guide on 6 of its 8 passes.)
+//! them also join the iteration's film: when guiding is kept, a trial costs
+//! no samples. When path tracing wins, the image keeps only its passes
+//! (`super::train`). (The unguided passes record nothing, so a training
+//! iteration that holds the trial trains the guide on 6 of its 8 passes.)
 //!
 //! Efficiency is 1 / (variance of the film's mean × render seconds); the
 //! variance is measured about the pooled mean of every film so far, which
@@ -125,6 +126,15 @@ impl StrategyTrial {
 
     pub fn finished(&self) -> bool {
         self.sides.iter().all(|s| s.calls >= CALLS_PER_SIDE)
+    }
+
+    /// The unguided side's passes so far: after a fallback, the start of
+    /// the image (`super::train`).
+    pub fn unguided_film(&self) -> &Film {
+        &self
+            .side_of(Strategy::Unguided)
+            .expect("every trial has this side")
+            .film
     }
 
     fn side_of(&self, strategy: Strategy) -> Option<&Side> {
