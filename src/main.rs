@@ -392,10 +392,18 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             }
         }
     }
+    let left_out = s.guiding.as_ref().map_or(0, |g| g.left_out_spp);
+    let spp = if left_out > 0 {
+        format!(
+            "{} spp ({left_out} guided spp before the fallback left out)",
+            s.spp
+        )
+    } else {
+        format!("{} spp", s.spp)
+    };
     eprintln!(
-        "{}: {} spp in {:.2} s ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",
+        "{}: {spp} in {:.2} s ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",
         s.scene,
-        s.spp,
         s.seconds,
         s.paths_per_second / 1e6,
         s.rays_per_second / 1e6,

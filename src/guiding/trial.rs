@@ -177,7 +177,7 @@ impl StrategyTrial {
         let pt_wins = eu > guided.1;
         let fallback_note = if pt_wins {
             format!(
-                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp): the rest of the budget is rendered by path tracing with NEE",
+                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp): the rest of the budget is rendered by path tracing with NEE, and the image holds path tracing's passes alone",
                 unguided.film.spp,
                 guided.2,
                 guided.1,
