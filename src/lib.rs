@@ -13,6 +13,7 @@ pub mod huge;
 pub mod integrator;
 pub mod ltc;
 pub mod math;
+pub mod pacing;
 pub mod plan;
 pub mod render;
 pub mod sampling;

@@ -6,8 +6,17 @@ use crate::guiding::guide::RadianceModel;
 use crate::guiding::product::{CosineLobes, ProductModel};
 use crate::guiding::sdtree::SdTree;
 use crate::guiding::train::{GuidingStats, render_guided};
+use crate::integrator::guide::NoGuide;
+use crate::integrator::path::PathSettings;
+use crate::integrator::stats::RenderCounters;
+use crate::integrator::{render_passes_into, thread_pool};
 use crate::ltc::{LtcTable, ProductKernel};
+use crate::scene::Scene;
+use serde::Serialize;
 use std::sync::OnceLock;
+
+/// The run's clock, snapshots and call sizes live in [`crate::pacing`].
+pub use crate::pacing::{PassPacer, RenderClock, Snapshot, SnapshotPlan};
 
 /// The committed LTC table, decoded once.
 pub fn default_ltc_table() -> Result<&'static LtcTable, String> {
@@ -17,13 +26,6 @@ pub fn default_ltc_table() -> Result<&'static LtcTable, String> {
         .as_ref()
         .map_err(|e| e.clone())
 }
-use crate::integrator::guide::NoGuide;
-use crate::integrator::path::PathSettings;
-use crate::integrator::stats::RenderCounters;
-use crate::integrator::{render_passes_into, thread_pool};
-use crate::scene::Scene;
-use serde::Serialize;
-use std::time::Instant;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Budget {
@@ -40,173 +42,6 @@ pub enum Method {
     Radiance,
     /// Product guiding: descent proportional to radiance × LTC-integrated BSDF.
     Product,
-}
-
-/// A wall clock that can leave out time spent on bookkeeping (snapshots), so
-/// taking snapshots does not change what a run's timings mean.
-#[derive(Clone, Debug)]
-pub struct RenderClock {
-    start: Instant,
-    excluded: f64,
-}
-
-impl RenderClock {
-    pub fn start() -> Self {
-        RenderClock {
-            start: Instant::now(),
-            excluded: 0.0,
-        }
-    }
-
-    /// Seconds of rendering so far.
-    pub fn seconds(&self) -> f64 {
-        self.start.elapsed().as_secs_f64() - self.excluded
-    }
-
-    /// Runs `f` without charging its time to the render.
-    pub fn excluding<T>(&mut self, f: impl FnOnce() -> T) -> T {
-        let t0 = Instant::now();
-        let out = f();
-        self.excluded += t0.elapsed().as_secs_f64();
-        out
-    }
-}
-
-/// The estimate a method would return if stopped at `seconds`.
-#[derive(Clone, Debug)]
-pub struct Snapshot {
-    pub seconds: f64,
-    pub spp: u32,
-    pub image: Image,
-}
-
-/// Takes snapshots at the given render times (seconds, ascending).
-#[derive(Clone, Debug, Default)]
-pub struct SnapshotPlan {
-    pub times: Vec<f64>,
-    next: usize,
-    pub taken: Vec<Snapshot>,
-}
-
-impl SnapshotPlan {
-    /// Roughly geometric time points from `first` to `last`, `per_doubling` per doubling.
-    pub fn geometric(first: f64, last: f64, per_doubling: u32) -> Self {
-        let mut times = Vec::new();
-        let ratio = 2f64.powf(1.0 / per_doubling.max(1) as f64);
-        let mut t = first.max(1e-3);
-        while t < last {
-            times.push(t);
-            t *= ratio;
-        }
-        SnapshotPlan {
-            times,
-            next: 0,
-            taken: Vec::new(),
-        }
-    }
-
-    /// The next snapshot's time, if any is left.
-    pub fn next_time(&self) -> Option<f64> {
-        self.times.get(self.next).copied()
-    }
-
-    /// True when the clock has passed the next snapshot time.
-    pub fn due(&self, seconds: f64) -> bool {
-        self.next < self.times.len() && seconds >= self.times[self.next]
-    }
-
-    /// Records an estimate (taken outside the render clock by the caller).
-    pub fn take(&mut self, seconds: f64, spp: u32, image: Image) {
-        while self.due(seconds) {
-            self.next += 1;
-        }
-        self.taken.push(Snapshot {
-            seconds,
-            spp,
-            image,
-        });
-    }
-}
-
-/// Most passes one pixel-major call renders (so the progress bar moves).
-const MAX_PASSES_PER_CALL: u64 = 16;
-
-/// Chooses how many passes each call of `render_passes_into` renders.
-///
-/// A call traces each pixel's paths one after the other: their first hits
-/// stay in cache, and product guiding reuses a first product lobe across a
-/// pixel's paths and its neighbours' (`guiding::pixel_reuse`). But the
-/// clock is read only between calls, so:
-/// - a sample budget renders what is left of it;
-/// - a deadline or a snapshot some seconds away takes about half of that
-///   time, judged by the last call's seconds per pass, so the calls shrink
-///   towards it; before any call has been timed, one pass;
-/// - a timed run ends when less than half a pass is left before its
-///   deadline ([`deadline_reached`](Self::deadline_reached)), so it ends
-///   within half a pass of it on either side. Ending at the first pass past
-///   the deadline gave a slow method up to a whole pass (9 % of a 30 s
-///   living-room run) more than its budget in an equal-time comparison.
-#[derive(Default)]
-pub struct PassPacer {
-    seconds_per_pass: Option<f64>,
-}
-
-impl PassPacer {
-    /// Whether a timed run should end at `now`: its deadline has passed,
-    /// or less than half a pass (at the last call's pace) is left before it.
-    pub fn deadline_reached(&self, now: f64, deadline: f64) -> bool {
-        now >= deadline
-            || self
-                .seconds_per_pass
-                .is_some_and(|s| deadline - now < 0.5 * s)
-    }
-
-    /// At most `n` passes, fewer where the deadline comes within `n` passes
-    /// at the known pace: about half the time left, at least one pass.
-    /// Unlike [`next_call`](Self::next_call) it ignores snapshots (a late
-    /// snapshot is taken at its real time) and keeps `n` while no pace is
-    /// known, for calls whose size matters (the strategy trial).
-    pub fn bound_by_deadline(&self, n: u64, now: f64, deadline: Option<f64>) -> u64 {
-        match (deadline, self.seconds_per_pass) {
-            (Some(end), Some(s)) if s > 0.0 => half_of(n, end - now, s),
-            _ => n,
-        }
-    }
-
-    /// Passes for a call starting at `now`, with `passes_left` of a sample
-    /// budget or a `deadline`, and the snapshots still to take.
-    pub fn next_call(
-        &self,
-        now: f64,
-        passes_left: Option<u64>,
-        deadline: Option<f64>,
-        snapshots: &SnapshotPlan,
-    ) -> u64 {
-        let mut n = MAX_PASSES_PER_CALL;
-        if let Some(p) = passes_left {
-            n = n.min(p);
-        }
-        let next = [deadline, snapshots.next_time()].into_iter().flatten();
-        if let Some(t) = next.map(|t| t - now).reduce(f64::min) {
-            n = match self.seconds_per_pass {
-                Some(s) if s > 0.0 && t.is_finite() => half_of(n, t, s),
-                _ => 1,
-            };
-        }
-        n.max(1)
-    }
-
-    /// Records that a call rendered `passes` in `seconds`.
-    pub fn called(&mut self, passes: u64, seconds: f64) {
-        self.seconds_per_pass = Some(seconds / passes as f64);
-    }
-}
-
-/// At most `n` passes, and no more than fit in half of `seconds_left` at
-/// `seconds_per_pass` (at least one).
-fn half_of(n: u64, seconds_left: f64, seconds_per_pass: f64) -> u64 {
-    n.min((0.5 * seconds_left / seconds_per_pass).max(0.0) as u64)
-        .max(1)
 }
 
 #[derive(Clone, Debug)]
@@ -396,10 +231,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let ltc_guards_before = crate::ltc::nonfinite_guard_count();
     let cpu_before = process_cpu_seconds();
     let mut clock = RenderClock::start();
-    let mut snapshots = SnapshotPlan {
-        times: opts.snapshot_times.clone(),
-        ..Default::default()
-    };
+    let mut snapshots = SnapshotPlan::at(opts.snapshot_times.clone());
     let (len, what) = match opts.budget {
         Budget::Spp(n) => (n as u64, format!("{:?} spp", opts.method)),
         Budget::Seconds(s) => ((s * 1000.0) as u64, format!("{:?} ms", opts.method)),
@@ -573,57 +405,4 @@ fn render_unguided(
         }
     }
     (film, counters)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Calls take what is left of a sample budget (at most 16 passes), one
-    /// pass until a timed budget has a pace, then about half the time left
-    /// before the deadline or the next snapshot, whichever is nearer.
-    #[test]
-    fn the_pacer_takes_half_the_time_left() {
-        let none = SnapshotPlan::default();
-        let mut pacer = PassPacer::default();
-        assert_eq!(pacer.next_call(0.0, Some(40), None, &none), 16);
-        assert_eq!(pacer.next_call(0.0, Some(3), None, &none), 3);
-        assert_eq!(pacer.next_call(0.0, None, Some(10.0), &none), 1);
-        pacer.called(2, 0.25);
-        assert_eq!(pacer.next_call(0.0, None, Some(1.0), &none), 4);
-        assert_eq!(pacer.next_call(0.0, None, Some(100.0), &none), 16);
-        assert_eq!(pacer.next_call(2.0, None, Some(1.0), &none), 1, "past it");
-        let snapshots = SnapshotPlan {
-            times: vec![0.6],
-            ..Default::default()
-        };
-        assert_eq!(pacer.next_call(0.0, None, Some(10.0), &snapshots), 2);
-        assert_eq!(pacer.next_call(0.0, Some(40), None, &snapshots), 2);
-    }
-
-    /// A timed run stops when less than half a pass is left (so it ends
-    /// within half a pass of its deadline), and a deadline bounds a call of
-    /// fixed size only once a pace is known.
-    #[test]
-    fn the_pacer_ends_within_half_a_pass_of_the_deadline() {
-        let mut pacer = PassPacer::default();
-        assert!(!pacer.deadline_reached(9.9, 10.0), "no pace yet");
-        assert!(pacer.deadline_reached(10.0, 10.0));
-        assert_eq!(
-            pacer.bound_by_deadline(4, 9.0, Some(10.0)),
-            4,
-            "no pace yet"
-        );
-        pacer.called(1, 0.5);
-        assert!(
-            !pacer.deadline_reached(9.7, 10.0),
-            "0.3 s left of a 0.5 s pass"
-        );
-        assert!(pacer.deadline_reached(9.8, 10.0), "0.2 s left");
-        assert_eq!(pacer.bound_by_deadline(4, 0.0, Some(10.0)), 4);
-        assert_eq!(pacer.bound_by_deadline(4, 8.0, Some(10.0)), 2);
-        assert_eq!(pacer.bound_by_deadline(4, 9.7, Some(10.0)), 1);
-        assert_eq!(pacer.bound_by_deadline(4, 12.0, Some(10.0)), 1, "past it");
-        assert_eq!(pacer.bound_by_deadline(4, 8.0, None), 4, "sample budget");
-    }
 }
