@@ -20,19 +20,20 @@
 //! Files: [`microfacet`] (GGX, Smith, visible-normal sampling), [`fresnel`],
 //! [`diffuse`], [`conductor`], [`plastic`] (+ [`plastic_tables`], Mitsuba's
 //! T(μ)/R_int tables), [`dielectric`], [`material`] (validation, texture
-//! resolution); this file declares the interface, dispatches and applies
-//! the `twosided` mirroring.
+//! resolution), `lobes.rs` (each model's [`Lobes`]); this file declares the
+//! interface, dispatches and applies the `twosided` mirroring.
 
 pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
+mod lobes;
 pub mod material;
 pub mod microfacet;
 pub mod plastic;
 pub mod plastic_tables;
 
-use crate::math::{Spectrum, is_finite3, luminance};
+use crate::math::{Spectrum, is_finite3};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use microfacet::Ggx;
@@ -479,86 +480,6 @@ impl Bsdf {
             weight,
             ..s
         })
-    }
-
-    /// The lobe decomposition for product guiding (see [`Lobes`]).
-    pub fn lobes(&self, wo: Vec3) -> Lobes {
-        let mirrored = self.mirrored(wo);
-        let side = if mirrored { -1.0 } else { 1.0 };
-        let wo = if mirrored { flip(wo) } else { wo };
-        let mut l = Lobes {
-            side,
-            ..Lobes::EMPTY
-        };
-        let front = wo.z > 0.0;
-        let cos_o = wo.z.clamp(0.0, 1.0);
-        let nonneg = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
-        match self.model {
-            BsdfModel::Diffuse { reflectance } if front => {
-                l.diffuse = nonneg(luminance(reflectance));
-            }
-            BsdfModel::RoughConductor {
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } if front => {
-                l.ggx[0] = GgxLobe {
-                    weight: nonneg(luminance(
-                        specular_reflectance * conductor::fresnel(&fresnel, cos_o),
-                    )),
-                    alpha: Ggx::new(alpha).alpha(),
-                };
-                l.ggx_count = 1;
-            }
-            BsdfModel::Conductor {
-                fresnel,
-                specular_reflectance,
-            } if front => {
-                l.delta = nonneg(luminance(
-                    specular_reflectance * conductor::fresnel(&fresnel, cos_o),
-                ));
-            }
-            BsdfModel::RoughPlastic {
-                alpha,
-                eta,
-                diffuse_reflectance,
-                table,
-                ..
-            } if front => {
-                l.ggx[0] = GgxLobe {
-                    weight: nonneg(fresnel::fresnel_dielectric_r(cos_o, eta)),
-                    alpha: Ggx::new(alpha).alpha(),
-                };
-                l.ggx_count = 1;
-                l.diffuse = nonneg(
-                    luminance(diffuse_reflectance) / (1.0 - table.internal_reflectance)
-                        * table.transmittance(cos_o)
-                        * table.mean_transmittance
-                        / (eta * eta),
-                );
-            }
-            BsdfModel::Plastic {
-                eta,
-                diffuse_reflectance,
-                ..
-            } if front => {
-                let f = fresnel::fresnel_dielectric_r(cos_o, eta);
-                let fdr_int = fresnel::fresnel_diffuse_reflectance(1.0 / eta);
-                let t_mean = 1.0 - fresnel::fresnel_diffuse_reflectance(eta);
-                l.delta = nonneg(f);
-                l.diffuse = nonneg(
-                    luminance(diffuse_reflectance) / (1.0 - fdr_int) * (1.0 - f) * t_mean
-                        / (eta * eta),
-                );
-            }
-            BsdfModel::Dielectric { .. } | BsdfModel::ThinDielectric { .. } => {
-                // Reflection + transmission carry all the energy (up to the
-                // radiance scaling of refraction).
-                l.delta = 1.0;
-            }
-            _ => {}
-        }
-        l
     }
 
     /// True when every lobe is a delta (Mitsuba's smooth `conductor`,
