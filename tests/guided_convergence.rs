@@ -10,7 +10,7 @@ mod common;
 use common::*;
 use ltcguide::film::compare::compare_blocks;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
-use ltcguide::render::{Method, RenderOptions, render};
+use ltcguide::render::{Method, RenderOptions, RenderResult, render};
 use ltcguide::scene::load_scene;
 use std::path::Path;
 
@@ -300,6 +300,26 @@ fn adrrs_changes_no_expectation() {
     }
 }
 
+/// Short paths on the own scene keep the plan's tests cheap; the trial's
+/// comparison is the same.
+fn short_paths(nee: bool, roulette: RouletteMode) -> PathSettings {
+    PathSettings {
+        nee,
+        max_depth: Some(4),
+        roulette,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    }
+}
+
+/// `guided`'s image agrees block by block with 48 spp of path tracing with
+/// NEE on the own scene.
+fn assert_agrees_with_pt(label: &str, guided: &RenderResult) {
+    let path = short_paths(true, RouletteMode::Classic);
+    let pt = render(&own_scene(), &options(Method::Pt, 48, 8, path)).unwrap();
+    let cmp = compare_blocks(&guided.image, &guided.variance, &pt.image, &pt.variance, 16).unwrap();
+    assert_blocks_agree(label, &cmp);
+}
+
 /// With the plan on, a product run spends its check iteration alternating
 /// product weights, radiance weights and path tracing, keeps whichever
 /// measured most efficient, and says which in its plan; whichever it keeps,
@@ -308,13 +328,7 @@ fn adrrs_changes_no_expectation() {
 #[test]
 fn product_measures_its_weights_against_radiance_weights_without_bias() {
     let scene = own_scene();
-    let path = PathSettings {
-        nee: true,
-        // Short paths keep the test cheap; the comparison is the same.
-        max_depth: Some(4),
-        roulette: RouletteMode::Classic,
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    };
+    let path = short_paths(true, RouletteMode::Classic);
     let product = render(&scene, &options(Method::Product, 48, 7, path)).unwrap();
     let guiding = product.stats.guiding.as_ref().unwrap();
     eprintln!("{}\n{}", guiding.weights_check, guiding.fallback);
@@ -348,16 +362,7 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
     assert_eq!(image_spp, product.stats.spp);
     let weights: f64 = guiding.iterations.iter().map(|i| i.weight).sum();
     assert!((weights - 1.0).abs() < 1e-9, "weights sum to {weights}");
-    let pt = render(&scene, &options(Method::Pt, 48, 8, path)).unwrap();
-    let cmp = compare_blocks(
-        &product.image,
-        &product.variance,
-        &pt.image,
-        &pt.variance,
-        16,
-    )
-    .unwrap();
-    assert_blocks_agree("own scene, product with weights check vs pt", &cmp);
+    assert_agrees_with_pt("own scene, product with weights check vs pt", &product);
 
     let unplanned = RenderOptions {
         use_plan: false,
@@ -384,14 +389,8 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
 /// left out, and the image converges to path tracing's.
 #[test]
 fn a_fallback_images_path_tracing_alone_without_bias() {
-    let scene = own_scene();
-    let path = PathSettings {
-        nee: false,
-        max_depth: Some(4),
-        roulette: RouletteMode::Adrrs,
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    };
-    let product = render(&scene, &options(Method::Product, 48, 7, path)).unwrap();
+    let path = short_paths(false, RouletteMode::Adrrs);
+    let product = render(&own_scene(), &options(Method::Product, 48, 7, path)).unwrap();
     let guiding = product.stats.guiding.as_ref().unwrap();
     assert!(
         guiding.fallback.starts_with("guiding does not pay here"),
@@ -404,15 +403,5 @@ fn a_fallback_images_path_tracing_alone_without_bias() {
     assert_eq!(image_spp[..4], [0, 0, 0, 2]);
     assert_eq!(image_spp.iter().sum::<u32>(), 35);
     assert!(guiding.iterations[..3].iter().all(|i| i.weight == 0.0));
-    let pt_path = PathSettings { nee: true, ..path };
-    let pt = render(&scene, &options(Method::Pt, 48, 8, pt_path)).unwrap();
-    let cmp = compare_blocks(
-        &product.image,
-        &product.variance,
-        &pt.image,
-        &pt.variance,
-        16,
-    )
-    .unwrap();
-    assert_blocks_agree("own scene, product fallen back vs pt", &cmp);
+    assert_agrees_with_pt("own scene, product fallen back vs pt", &product);
 }
