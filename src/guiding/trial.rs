@@ -18,6 +18,9 @@
 //! (`super::train`). (The unguided passes record nothing, so a training
 //! iteration that holds the trial trains the guide on 6 of its 8 passes.)
 //!
+//! Where path tracing leads every guided side by [`EARLY_FALLBACK_LEAD`]
+//! after one call each, the trial ends there.
+//!
 //! Efficiency is 1 / (variance of the film's mean × render seconds); the
 //! variance is measured about the pooled mean of every film so far, which
 //! stays meaningful at a few spp. The guided sides of a training iteration
@@ -45,6 +48,16 @@ pub const UNGUIDED_PASSES: u32 = 2;
 /// Calls per side, interleaved round robin, so that a drift of the host's
 /// speed during the trial reaches every side alike.
 const CALLS_PER_SIDE: u32 = 2;
+/// Path tracing's lead in efficiency over every guided side that ends the
+/// trial after its first round of calls. Where path tracing wins on the
+/// pack, it leads by 5.7–8.5× after the whole trial (cornell-box,
+/// veach-ajar, staircase) or 2.0–4.1× (veach-mis); where guiding wins
+/// (living-room), it is behind. A lead this large does not come from
+/// noise: at 1 spp a guided side's variance misses its rare fireflies, which
+/// overrates guiding, not path tracing. Stopping early turns the rest of the
+/// trial's guided passes, which a fallback leaves out of the image, into
+/// path tracing's, which it keeps.
+pub const EARLY_FALLBACK_LEAD: f64 = 4.0;
 
 struct Side {
     strategy: Strategy,
@@ -128,6 +141,39 @@ impl StrategyTrial {
         self.sides.iter().all(|s| s.calls >= CALLS_PER_SIDE)
     }
 
+    /// Whether the trial can decide now: every call made, or after the first
+    /// round path tracing leads every guided side by [`EARLY_FALLBACK_LEAD`].
+    /// `done` are the films of the finished iterations.
+    pub fn ready(&self, done: &[Film]) -> bool {
+        if self.finished() {
+            return true;
+        }
+        if self.next != self.sides.len() {
+            return false;
+        }
+        let eff = self.efficiencies(done);
+        let unguided = eff(Strategy::Unguided);
+        let best_guided = [Strategy::Model, Strategy::Cheaper]
+            .into_iter()
+            .filter(|&s| self.side_of(s).is_some())
+            .map(&eff)
+            .fold(0.0, f64::max);
+        unguided >= EARLY_FALLBACK_LEAD * best_guided
+    }
+
+    /// Each side's efficiency, its variance measured about the pooled mean
+    /// of `done` and every side's film (0 when not measurable).
+    fn efficiencies(&self, done: &[Film]) -> impl Fn(Strategy) -> f64 + '_ {
+        let mut all: Vec<&Film> = done.iter().collect();
+        all.extend(self.sides.iter().map(|s| &s.film));
+        let mu = pooled_mean(&all);
+        move |strategy| {
+            let s = self.side_of(strategy).expect("every trial has this side");
+            let e = efficiency(&s.film, s.seconds, &mu);
+            if e.is_finite() { e } else { 0.0 }
+        }
+    }
+
     /// The unguided side's passes so far: after a fallback, the start of
     /// the image (`super::train`).
     pub fn unguided_film(&self) -> &Film {
@@ -144,19 +190,13 @@ impl StrategyTrial {
     /// The most efficient strategy, with the reports. `done` are the films
     /// of the finished iterations, `model` and `cheaper` the weights' names.
     pub fn decide(&self, done: &[Film], model: &str, cheaper: Option<&str>) -> Decision {
-        let mut all: Vec<&Film> = done.iter().collect();
-        all.extend(self.sides.iter().map(|s| &s.film));
-        let mu = pooled_mean(&all);
-        let eff = |s: &Side| {
-            let e = efficiency(&s.film, s.seconds, &mu);
-            if e.is_finite() { e } else { 0.0 }
-        };
+        let eff = self.efficiencies(done);
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
-        let mut guided = (Strategy::Model, eff(model_side), model);
+        let mut guided = (Strategy::Model, eff(Strategy::Model), model);
         let mut weights_note = String::new();
         if let (Some(c), Some(name)) = (self.side_of(Strategy::Cheaper), cheaper) {
-            let (em, ec) = (guided.1, eff(c));
+            let (em, ec) = (guided.1, eff(Strategy::Cheaper));
             let cheaper_wins = ec > em;
             weights_note = format!(
                 "{model} weights {} (efficiency {em:.3e}, {name} weights {ec:.3e}, measured on {} + {} spp)",
@@ -173,11 +213,18 @@ impl StrategyTrial {
             }
         }
         let unguided = side(Strategy::Unguided);
-        let eu = eff(unguided);
+        let eu = eff(Strategy::Unguided);
         let pt_wins = eu > guided.1;
         let fallback_note = if pt_wins {
+            let early = if self.finished() {
+                String::new()
+            } else {
+                format!(
+                    ", after the first round: a lead of {EARLY_FALLBACK_LEAD}× or more ends the trial"
+                )
+            };
             format!(
-                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp): the rest of the budget is rendered by path tracing with NEE, and the image holds path tracing's passes alone",
+                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp{early}): the rest of the budget is rendered by path tracing with NEE, and the image holds path tracing's passes alone",
                 unguided.film.spp,
                 guided.2,
                 guided.1,
@@ -246,7 +293,7 @@ mod tests {
     fn run(has_cheaper: bool, side: impl Fn(Strategy) -> (f32, f64)) -> (StrategyTrial, Decision) {
         let mut t = StrategyTrial::new(64, 64, has_cheaper);
         let mut seed = 1;
-        while !t.finished() {
+        while !t.ready(&[]) {
             let (strategy, passes) = t.next_call();
             let (sigma, seconds) = side(strategy);
             t.record(&film(passes, sigma, seed), seconds * passes as f64);
@@ -316,5 +363,28 @@ mod tests {
         });
         assert_eq!(d.strategy, Strategy::Unguided);
         assert!(d.fallback_note.contains("radiance weights"));
+        assert!(!d.fallback_note.contains("first round"));
+    }
+
+    /// Path tracing 10× as efficient as either guided side: the trial
+    /// decides after one call per side. At 3× it makes every call.
+    #[test]
+    fn a_decisive_lead_ends_the_trial_after_the_first_round() {
+        let (t, d) = run(true, |s| match s {
+            Strategy::Unguided => (1.0, 1.0),
+            _ => (1.0, 10.0),
+        });
+        assert!(t.sides.iter().all(|s| s.calls == 1), "one round");
+        assert!(!t.finished());
+        assert_eq!(d.strategy, Strategy::Unguided);
+        assert!(d.fallback_note.contains("on 1 spp"), "{}", d.fallback_note);
+        assert!(d.fallback_note.contains("after the first round"));
+        let (t, d) = run(false, |s| match s {
+            Strategy::Unguided => (1.0, 1.0),
+            _ => (1.0, 3.0),
+        });
+        assert!(t.finished() && t.sides.iter().all(|s| s.calls == CALLS_PER_SIDE));
+        assert_eq!(d.strategy, Strategy::Unguided);
+        assert!(!d.fallback_note.contains("first round"));
     }
 }
