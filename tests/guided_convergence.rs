@@ -397,7 +397,12 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
 #[test]
 fn a_fallback_images_path_tracing_alone_without_bias() {
     let path = short_paths(false, RouletteMode::Adrrs);
-    let product = render(&own_scene(), &options(Method::Product, 48, 7, path)).unwrap();
+    // A snapshot after every call (1 ms apart, past the run's end).
+    let opts = RenderOptions {
+        snapshot_times: (1..=100_000).map(|k| k as f64 * 1e-3).collect(),
+        ..options(Method::Product, 48, 7, path)
+    };
+    let product = render(&own_scene(), &opts).unwrap();
     let guiding = product.stats.guiding.as_ref().unwrap();
     assert!(
         guiding.fallback.starts_with("guiding does not pay here"),
@@ -414,6 +419,13 @@ fn a_fallback_images_path_tracing_alone_without_bias() {
     let image_spp: Vec<u32> = guiding.iterations.iter().map(|i| i.image_spp).collect();
     assert_eq!(image_spp[..4], [0, 0, 0, check_image]);
     assert_eq!(image_spp.iter().sum::<u32>(), 48 - left_out);
+    // Snapshots count the image's passes too: they drop at the decision.
+    let snapshot_spp: Vec<u32> = product.snapshots.iter().map(|s| s.spp).collect();
+    assert!(
+        snapshot_spp.windows(2).any(|w| w[1] < w[0])
+            && snapshot_spp.last() <= Some(&product.stats.spp),
+        "{snapshot_spp:?}"
+    );
     assert!(guiding.iterations[..3].iter().all(|i| i.weight == 0.0));
     assert_agrees_with_pt("own scene, product fallen back vs pt", &product);
 }

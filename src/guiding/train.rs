@@ -405,9 +405,10 @@ pub fn render_guided<M: WeightModel>(
             let now = clock.seconds();
             pacer.called(n, now - call_start);
             if snapshots.due(now) {
-                let spp = total_spp(&films, &film);
                 clock.excluding(|| {
                     let all = image_films(&films, Some(&film), &fallback_image);
+                    // The image's passes, as the final `spp` counts them.
+                    let spp = all.iter().map(|f| f.spp).sum();
                     if let Some((image, _, _)) = combine(&all) {
                         snapshots.take(now, spp, image);
                     }

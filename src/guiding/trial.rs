@@ -158,7 +158,8 @@ impl StrategyTrial {
             .filter(|&s| self.side_of(s).is_some())
             .map(&eff)
             .fold(0.0, f64::max);
-        unguided >= EARLY_FALLBACK_LEAD * best_guided
+        // Unmeasurable (0) everywhere is no lead.
+        unguided > 0.0 && unguided >= EARLY_FALLBACK_LEAD * best_guided
     }
 
     /// Each side's efficiency, its variance measured about the pooled mean
