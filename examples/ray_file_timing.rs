@@ -35,7 +35,7 @@ fn read_rays(path: &Path) -> Result<RayFile, String> {
     if bytes.len() != 16 + 28 * n {
         return Err(bad(&format!("{} bytes for {n} rays", bytes.len())));
     }
-    if !(occlusion_tmax > 0.0) {
+    if occlusion_tmax.is_nan() || occlusion_tmax <= 0.0 {
         return Err(bad("occlusion length not positive"));
     }
     let values: Vec<f32> = bytes[16..]

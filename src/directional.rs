@@ -90,7 +90,7 @@ pub fn fast_atan2(y: f32, x: f32) -> f32 {
     let t = if den > 0.0 { num / den } else { 0.0 };
     let z = t * t;
     let p =
-        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_294_9e-1) * z * t
+        (((8.053_744_5e-2 * z - 1.387_768_6e-1) * z + 1.997_771_1e-1) * z - 3.333_295e-1) * z * t
             + t;
     let mut r = if upper { FRAC_PI_4 + p } else { p };
     if ay > ax {

@@ -1,5 +1,8 @@
 //! The `ltcguide` command line.
 
+// `!(x > 0.0)` rejects NaN with the non-positive values (as in the library).
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use clap::{Args, Parser, Subcommand};
 use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::{read_image, write_rgb};
@@ -306,7 +309,7 @@ fn load(path: &Path) -> Result<Scene, String> {
 fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     let scene = load(&args.scene)?;
     let budget = match (args.spp, args.time) {
-        (Some(n), _) if n == 0 => return Err("--spp must be at least 1".into()),
+        (Some(0), _) => return Err("--spp must be at least 1".into()),
         (Some(n), _) => Budget::Spp(n),
         (None, Some(t)) if !(t > 0.0 && t.is_finite()) => {
             return Err("--time must be a positive number of seconds".into());
@@ -346,12 +349,12 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
     };
-    if let Some(c) = args.spatial_threshold {
-        if !(c > 0.0 && c.is_finite()) {
-            return Err(format!(
-                "--spatial-threshold must be a positive number, got {c}"
-            ));
-        }
+    if let Some(c) = args.spatial_threshold
+        && !(c > 0.0 && c.is_finite())
+    {
+        return Err(format!(
+            "--spatial-threshold must be a positive number, got {c}"
+        ));
     }
     check_adrrs_window(args.adrrs_window)?;
     if let Some(a) = args.bsdf_fraction {

@@ -99,9 +99,9 @@ fn f32_children_form_factors_match_the_closed_form_at_every_depth() {
                 iy: rng.next_u32() % n,
             };
             let got = children_form_factors_f32(cell);
-            for k in 0..4 {
+            for (k, got) in got.iter().enumerate() {
                 let exact = cell_form_factor(cell.child(k));
-                let err = (got[k].as_dvec3() - exact).length() / exact.length();
+                let err = (got.as_dvec3() - exact).length() / exact.length();
                 worst = worst.max(err);
             }
         }
@@ -113,10 +113,10 @@ fn f32_children_form_factors_match_the_closed_form_at_every_depth() {
                 iy: 3 % n,
             };
             let got = children_form_factors_f32(cell);
-            for k in 0..4 {
+            for (k, got) in got.iter().enumerate() {
                 let exact = cell_form_factor(cell.child(k));
                 assert!(
-                    (got[k].as_dvec3() - exact).length() <= 1e-5 * exact.length(),
+                    (got.as_dvec3() - exact).length() <= 1e-5 * exact.length(),
                     "{cell:?}"
                 );
             }

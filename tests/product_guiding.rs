@@ -116,7 +116,7 @@ fn weights_for<'c>(
 ) -> Option<ProductWeights<'c>> {
     let frame = Frame::from_normal(case.normal);
     let t = case.theta_o_deg.to_radians();
-    let phi = 6.2831853 * rng.next_f32();
+    let phi = std::f32::consts::TAU * rng.next_f32();
     let wo = Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos());
     let bsdf = material(case.alpha, case.diffuse).at(Vec2::ZERO);
     let ctx = VertexContext {

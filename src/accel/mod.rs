@@ -235,6 +235,9 @@ impl Accel {
         prim != u32::MAX
     }
 
+    // Always inlined into its two callers, so the ray's parts as separate
+    // arguments cost nothing.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn traverse<const ANY_HIT: bool>(
         &self,

@@ -372,7 +372,7 @@ fn summary_markdown(
     let finals = |m: &str| -> Vec<&CurveRow> {
         let mut last: Vec<&CurveRow> = Vec::new();
         for run in 0..opts.runs {
-            if let Some(r) = rows.iter().filter(|r| r.method == m && r.run == run).last() {
+            if let Some(r) = rows.iter().rfind(|r| r.method == m && r.run == run) {
                 last.push(r);
             }
         }

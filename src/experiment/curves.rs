@@ -110,10 +110,10 @@ pub fn mean_curve(rows: &[CurveRow], method: &str) -> MeanCurve {
 /// First time at which a (log-log interpolated) mean curve reaches `error`,
 /// or `None` if it never does within its time range.
 pub fn time_to_error(seconds: &[f64], errors: &[f64], error: f64) -> Option<f64> {
-    if let (Some(&t0), Some(&e0)) = (seconds.first(), errors.first()) {
-        if e0 <= error {
-            return Some(t0);
-        }
+    if let (Some(&t0), Some(&e0)) = (seconds.first(), errors.first())
+        && e0 <= error
+    {
+        return Some(t0);
     }
     for k in 1..seconds.len() {
         let (e0, e1) = (errors[k - 1], errors[k]);

@@ -220,25 +220,24 @@ pub fn trace_path<G: Guide>(
         // contribution of everything from this vertex on is throughput ×
         // reflected radiance; keep it near the pixel's value.
         let mut adrrs_applied = false;
-        if adrrs_here {
-            if let Some(adjoint) = guide_vertex.as_ref().and_then(|g| g.adjoint_estimate()) {
-                if pixel_estimate > 0.0 {
-                    adrrs_applied = true;
-                    let t = crate::math::luminance(throughput);
-                    match (crate::guiding::adrrs::Adrrs {
-                        s: settings.adrrs_window,
-                    })
-                    .roulette(
-                        t,
-                        pixel_estimate,
-                        adjoint,
-                        rng.next_f32(),
-                        &mut counters.adrrs,
-                    ) {
-                        Some(factor) => throughput *= factor,
-                        None => break,
-                    }
-                }
+        if adrrs_here
+            && let Some(adjoint) = guide_vertex.as_ref().and_then(|g| g.adjoint_estimate())
+            && pixel_estimate > 0.0
+        {
+            adrrs_applied = true;
+            let t = crate::math::luminance(throughput);
+            match (crate::guiding::adrrs::Adrrs {
+                s: settings.adrrs_window,
+            })
+            .roulette(
+                t,
+                pixel_estimate,
+                adjoint,
+                rng.next_f32(),
+                &mut counters.adrrs,
+            ) {
+                Some(factor) => throughput *= factor,
+                None => break,
             }
         }
         if nee {

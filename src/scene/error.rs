@@ -57,6 +57,8 @@ fn one_line(s: &str) -> String {
         .collect()
 }
 
+impl std::error::Error for SceneError {}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -77,5 +79,3 @@ mod tests {
         assert_eq!(text.lines().count(), 1);
     }
 }
-
-impl std::error::Error for SceneError {}

@@ -387,13 +387,13 @@ impl<'a> Builder<'a> {
                 format!("triangle {i} lies beyond ±{MAX_COORDINATE:e}: coordinates too large"),
             ));
         }
-        if let Some((center, radius, _)) = sphere {
-            if too_far(center.abs() + radius) {
-                return Err(ctx.error(
-                    node,
-                    format!("sphere reaches beyond ±{MAX_COORDINATE:e}: coordinates too large"),
-                ));
-            }
+        if let Some((center, radius, _)) = sphere
+            && too_far(center.abs() + radius)
+        {
+            return Err(ctx.error(
+                node,
+                format!("sphere reaches beyond ±{MAX_COORDINATE:e}: coordinates too large"),
+            ));
         }
         props.warn_unused();
         self.shapes.push(PendingShape {

@@ -35,10 +35,10 @@ impl Builder<'_> {
                 ));
             }
         };
-        if let Texture::Constant(c) = value {
-            if c.min_element() < 0.0 {
-                return Err(ctx.error(node, format!("'{name}' must not be negative")));
-            }
+        if let Texture::Constant(c) = value
+            && c.min_element() < 0.0
+        {
+            return Err(ctx.error(node, format!("'{name}' must not be negative")));
         }
         Ok(value)
     }
@@ -53,13 +53,13 @@ impl Builder<'_> {
                     .string("filename")?
                     .ok_or_else(|| ctx.error(node, "bitmap needs a 'filename'"))?;
                 let raw = props.boolean("raw", false)?;
-                if let Some((f, n)) = props.string("filter_type")? {
-                    if f != "bilinear" {
-                        return Err(ctx.error(
-                            n,
-                            format!("unsupported filter_type '{f}' (only 'bilinear')"),
-                        ));
-                    }
+                if let Some((f, n)) = props.string("filter_type")?
+                    && f != "bilinear"
+                {
+                    return Err(ctx.error(
+                        n,
+                        format!("unsupported filter_type '{f}' (only 'bilinear')"),
+                    ));
                 }
                 let path = ctx.resolve_path(fnode, &file)?;
                 self.bitmap(&path, raw, fnode)?
@@ -187,13 +187,13 @@ impl Builder<'_> {
         }
         let props = Properties::new(ctx, node);
         let ggx_alpha = |props: &Properties| -> Result<f32, SceneError> {
-            if let Some((d, n)) = props.string("distribution")? {
-                if d != "ggx" {
-                    return Err(ctx.error(
-                        n,
-                        format!("unsupported microfacet distribution '{d}' (only 'ggx')"),
-                    ));
-                }
+            if let Some((d, n)) = props.string("distribution")?
+                && d != "ggx"
+            {
+                return Err(ctx.error(
+                    n,
+                    format!("unsupported microfacet distribution '{d}' (only 'ggx')"),
+                ));
             }
             if props.float_opt("alpha_u")?.is_some() {
                 return Err(ctx.error(node, "anisotropic roughness is not supported; use 'alpha'"));

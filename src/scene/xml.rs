@@ -244,13 +244,13 @@ impl<'a, 'n> Properties<'a, 'n> {
             if !PROPERTY_TAGS.contains(&c.tag_name().name()) {
                 continue;
             }
-            if let Some(name) = c.attribute("name") {
-                if !used.iter().any(|u| u == name) {
-                    self.ctx.warn(
-                        c,
-                        format!("property '{name}' is not used by ltcguide; ignored"),
-                    );
-                }
+            if let Some(name) = c.attribute("name")
+                && !used.iter().any(|u| u == name)
+            {
+                self.ctx.warn(
+                    c,
+                    format!("property '{name}' is not used by ltcguide; ignored"),
+                );
             }
         }
     }

@@ -281,7 +281,7 @@ impl SphereMap {
         } else {
             0.5 * (1.0 - l.z)
         };
-        let mut phi = (l.y as f64).atan2(l.x as f64);
+        let mut phi = l.y.atan2(l.x);
         if phi < 0.0 {
             phi += 2.0 * std::f64::consts::PI;
         }
