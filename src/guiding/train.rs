@@ -389,8 +389,7 @@ pub fn render_guided<M: WeightModel>(
             }
             if let Some(t) = trial.as_mut() {
                 t.record(&call_film, render_seconds);
-                if t.ready(&films) {
-                    let d = t.decide(&films, model.name(), cheaper_name);
+                if let Some(d) = t.decision(&films, model.name(), cheaper_name) {
                     if d.strategy == Strategy::Unguided {
                         fallback_image = Some(FallbackImage::new(t.unguided_film(), films.len()));
                     }

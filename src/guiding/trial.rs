@@ -141,27 +141,6 @@ impl StrategyTrial {
         self.sides.iter().all(|s| s.calls >= CALLS_PER_SIDE)
     }
 
-    /// Whether the trial can decide now: every call made, or after the first
-    /// round path tracing leads every guided side by [`EARLY_FALLBACK_LEAD`].
-    /// `done` are the films of the finished iterations.
-    pub fn ready(&self, done: &[Film]) -> bool {
-        if self.finished() {
-            return true;
-        }
-        if self.next != self.sides.len() {
-            return false;
-        }
-        let eff = self.efficiencies(done);
-        let unguided = eff(Strategy::Unguided);
-        let best_guided = [Strategy::Model, Strategy::Cheaper]
-            .into_iter()
-            .filter(|&s| self.side_of(s).is_some())
-            .map(&eff)
-            .fold(0.0, f64::max);
-        // Unmeasurable (0) everywhere is no lead.
-        unguided > 0.0 && unguided >= EARLY_FALLBACK_LEAD * best_guided
-    }
-
     /// Each side's efficiency, its variance measured about the pooled mean
     /// of `done` and every side's film (0 when not measurable).
     fn efficiencies(&self, done: &[Film]) -> impl Fn(Strategy) -> f64 + '_ {
@@ -188,10 +167,29 @@ impl StrategyTrial {
         self.sides.iter().find(|s| s.strategy == strategy)
     }
 
-    /// The most efficient strategy, with the reports. `done` are the films
-    /// of the finished iterations, `model` and `cheaper` the weights' names.
-    pub fn decide(&self, done: &[Film], model: &str, cheaper: Option<&str>) -> Decision {
+    /// The most efficient strategy, with the reports, once the trial can
+    /// tell: after every call, or after the first round when path tracing
+    /// leads every guided side by [`EARLY_FALLBACK_LEAD`]; `None` until
+    /// then. `done` are the films of the finished iterations, `model` and
+    /// `cheaper` the weights' names.
+    pub fn decision(&self, done: &[Film], model: &str, cheaper: Option<&str>) -> Option<Decision> {
+        let finished = self.finished();
+        if !finished && self.next != self.sides.len() {
+            return None;
+        }
         let eff = self.efficiencies(done);
+        if !finished {
+            let unguided = eff(Strategy::Unguided);
+            let best_guided = [Strategy::Model, Strategy::Cheaper]
+                .into_iter()
+                .filter(|&s| self.side_of(s).is_some())
+                .map(&eff)
+                .fold(0.0, f64::max);
+            // Unmeasurable (0) everywhere is no lead.
+            if !(unguided > 0.0 && unguided >= EARLY_FALLBACK_LEAD * best_guided) {
+                return None;
+            }
+        }
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
         let mut guided = (Strategy::Model, eff(Strategy::Model), model);
@@ -217,7 +215,7 @@ impl StrategyTrial {
         let eu = eff(Strategy::Unguided);
         let pt_wins = eu > guided.1;
         let fallback_note = if pt_wins {
-            let early = if self.finished() {
+            let early = if finished {
                 String::new()
             } else {
                 format!(
@@ -234,7 +232,7 @@ impl StrategyTrial {
         } else {
             String::new()
         };
-        Decision {
+        Some(Decision {
             strategy: if pt_wins {
                 Strategy::Unguided
             } else {
@@ -242,7 +240,7 @@ impl StrategyTrial {
             },
             weights_note,
             fallback_note,
-        }
+        })
     }
 
     /// The report of a trial the budget ended before it finished.
@@ -294,14 +292,15 @@ mod tests {
     fn run(has_cheaper: bool, side: impl Fn(Strategy) -> (f32, f64)) -> (StrategyTrial, Decision) {
         let mut t = StrategyTrial::new(64, 64, has_cheaper);
         let mut seed = 1;
-        while !t.ready(&[]) {
+        loop {
+            if let Some(d) = t.decision(&[], "product", has_cheaper.then_some("radiance")) {
+                return (t, d);
+            }
             let (strategy, passes) = t.next_call();
             let (sigma, seconds) = side(strategy);
             t.record(&film(passes, sigma, seed), seconds * passes as f64);
             seed += 1;
         }
-        let d = t.decide(&[], "product", has_cheaper.then_some("radiance"));
-        (t, d)
     }
 
     #[test]
