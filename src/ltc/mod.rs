@@ -53,6 +53,12 @@ pub mod polygon;
 pub mod quad;
 pub mod quad_x16;
 pub mod simd;
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    not(target_feature = "avx512f")
+))]
+mod simd_avx2;
 pub mod sphere_clip;
 pub mod table;
 

@@ -111,7 +111,11 @@ pub fn permute(v: f32x16, idx: &[i32; 16]) -> f32x16 {
             std::mem::transmute(_mm512_permutexvar_ps(vi, vv))
         }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    {
+        super::simd_avx2::permute(v, idx)
+    }
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
         let a = v.to_array();
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
@@ -158,7 +162,11 @@ pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
             std::mem::transmute(_mm512_shuffle_f32x4::<ORDER>(vv, vv))
         }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    {
+        super::simd_avx2::shuffle_blocks(v, ORDER)
+    }
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
         let a = v.to_array();
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
@@ -288,7 +296,11 @@ pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
             std::mem::transmute(_mm512_permutexvar_ps(vi, _mm512_castps128_ps512(vv)))
         }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    {
+        super::simd_avx2::spread4(v, idx)
+    }
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
         let a = v.to_array();
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
@@ -380,7 +392,11 @@ pub fn successor_lanes(v: f32x16, next: f32x16) -> f32x16 {
             std::mem::transmute(_mm512_alignr_epi32::<1>(n, v))
         }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    {
+        super::simd_avx2::successor_lanes(v, next)
+    }
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
         let (a, n) = (v.to_array(), next.to_array());
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
@@ -399,7 +415,11 @@ pub fn lane_mask(bits: u16) -> f32x16 {
         // (all ones or zero); avx512f is enabled at compile time.
         unsafe { std::mem::transmute(_mm512_maskz_mov_epi32(bits, _mm512_set1_epi32(-1))) }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    {
+        super::simd_avx2::lane_mask(bits)
+    }
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
             f32::from_bits(if bits >> l & 1 == 1 { u32::MAX } else { 0 })
@@ -442,7 +462,11 @@ pub fn lane_sums4(v: [f32x16; 4]) -> wide::f32x4 {
             std::mem::transmute(_mm512_castps512_ps128(_mm512_permutexvar_ps(lanes, y)))
         }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    {
+        super::simd_avx2::lane_sums4(v)
+    }
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
         wide::f32x4::from(v.map(|v| {
             let a = v.to_array();
