@@ -97,7 +97,7 @@ pub fn rsqrt(x: f32) -> f32 {
 /// (lane for lane the scalar estimate: vrsqrt14ps on AVX-512, vrsqrtps on
 /// AVX2).
 #[inline(always)]
-pub fn rsqrt14_x16(x: f32x16) -> f32x16 {
+pub fn rsqrt_estimate_x16(x: f32x16) -> f32x16 {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
     {
         use std::arch::x86_64::{__m512, _mm512_rsqrt14_ps};
@@ -127,7 +127,7 @@ pub fn rsqrt14_x16(x: f32x16) -> f32x16 {
 /// [`rsqrt`] on 16 lanes.
 #[inline(always)]
 pub fn rsqrt_x16(x: f32x16) -> f32x16 {
-    let y = rsqrt14_x16(x);
+    let y = rsqrt_estimate_x16(x);
     let hx = f32x16::splat(0.5) * x;
     y * (-hx).mul_add(y * y, f32x16::splat(1.5))
 }

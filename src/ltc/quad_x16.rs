@@ -27,7 +27,7 @@
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::{
     DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, THETA_OVER_SIN_SHORT, dyadic_entries,
-    rsqrt14_x16, step_sincos, theta_over_sin_x16,
+    rsqrt_estimate_x16, step_sincos, theta_over_sin_x16,
 };
 use super::quad::{POLE_R2_FLOOR, quad_children_scalar};
 use super::simd::{
@@ -162,7 +162,7 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
         t[2],
         t[1].mul_add(t[1], t[0].mul_add(t[0], splat(RSQRT_FLOOR))),
     );
-    let y = rsqrt14_x16(n2);
+    let y = rsqrt_estimate_x16(n2);
     let inv2 = y * (-n2).mul_add(y * y, splat(3.0));
     let a = t.map(|v| v * inv2);
     let b = a.map(shuffle_blocks::<END_BLOCKS>);
