@@ -89,11 +89,21 @@ pub trait Guide: Sync {
     /// Per-worker memory shared by the paths of a row block.
     type Cache: VertexCache;
 
-    /// The sampling distribution at a non-delta vertex; `None` means BSDF
-    /// sampling only. The vertex may keep what it computes in `cache`.
+    /// Where a point lies in the guide's structure.
+    type Location: Copy;
+
+    /// Finds where the non-delta hit `p` lies and starts loading what
+    /// [`Self::vertex`] will read there. Called before the hit's texture
+    /// lookup, so that the cache misses overlap the work in between.
+    fn locate(&self, p: Vec3) -> Self::Location;
+
+    /// The sampling distribution at a non-delta vertex located at `at` (by
+    /// [`Self::locate`] of `ctx.p`); `None` means BSDF sampling only. The
+    /// vertex may keep what it computes in `cache`.
     fn vertex<'a>(
         &'a self,
         ctx: &VertexContext,
+        at: Self::Location,
         cache: &'a mut Self::Cache,
     ) -> Option<Self::Vertex<'a>>;
 
@@ -127,8 +137,11 @@ impl Guide for NoGuide {
     type Vertex<'a> = Never;
     type Recorder = ();
     type Cache = ();
+    type Location = ();
 
-    fn vertex<'a>(&'a self, _ctx: &VertexContext, _cache: &'a mut ()) -> Option<Never> {
+    fn locate(&self, _p: Vec3) {}
+
+    fn vertex<'a>(&'a self, _ctx: &VertexContext, _at: (), _cache: &'a mut ()) -> Option<Never> {
         None
     }
 

@@ -184,9 +184,11 @@ pub fn trace_path<G: Guide>(
         if segments >= max_depth {
             break;
         }
+        // The guide's memory, too, loads during the texture lookup.
+        let smooth_only = material.has_smooth_lobes_only();
+        let location = (!smooth_only).then(|| guide.locate(it.p));
 
         let wo = it.frame.to_local(-d);
-        let smooth_only = material.has_smooth_lobes_only();
         let nee = settings.nee && !smooth_only && !scene.lights.is_empty();
         // Next-event sample and shadow ray ahead of the texture lookup (the
         // random numbers are drawn in the same order as below; ADRRS draws
@@ -202,7 +204,7 @@ pub fn trace_path<G: Guide>(
         let adrrs_here = settings.roulette == RouletteMode::Adrrs && segments >= ADRRS_MIN_SEGMENTS;
         // Next-event estimation at vertices with a non-delta component.
         let mut guide_vertex = None;
-        if !smooth_only {
+        if let Some(location) = location {
             guide_vertex = guide.vertex(
                 &VertexContext {
                     p: it.p,
@@ -213,6 +215,7 @@ pub fn trace_path<G: Guide>(
                     needs_adjoint: adrrs_here,
                     vertex_index: segments - 1,
                 },
+                location,
                 cache,
             );
         }
