@@ -110,13 +110,7 @@ pub fn rsqrt_estimate_x16(x: f32x16) -> f32x16 {
     }
     #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
     {
-        use std::arch::x86_64::{__m256, _mm256_rsqrt_ps};
-        // SAFETY: without AVX-512 `wide` keeps f32x16 as two __m256 (64
-        // bytes of f32 either way); avx2 is enabled (the cfg above).
-        unsafe {
-            let [lo, hi]: [__m256; 2] = std::mem::transmute(x);
-            std::mem::transmute([_mm256_rsqrt_ps(lo), _mm256_rsqrt_ps(hi)])
-        }
+        super::simd_avx2::rsqrt_estimate(x)
     }
     #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     {
