@@ -332,24 +332,17 @@ fn stiff_scene_renders_finite_and_methods_agree() {
         };
         render(&scene, &opts).unwrap()
     };
+    let finite_and_non_negative = |image: &ltcguide::film::image::Image| {
+        image
+            .pixels
+            .iter()
+            .all(|p| is_finite3(*p) && p.min_element() >= 0.0)
+    };
     let pt = run(Method::Pt, 512);
-    {
-        let r = &pt;
-        assert!(
-            r.image
-                .pixels
-                .iter()
-                .all(|p| is_finite3(*p) && p.min_element() >= 0.0)
-        );
-    }
+    assert!(finite_and_non_negative(&pt.image));
     for method in [Method::Radiance, Method::Product] {
         let g = run(method, 512);
-        assert!(
-            g.image
-                .pixels
-                .iter()
-                .all(|p| is_finite3(*p) && p.min_element() >= 0.0)
-        );
+        assert!(finite_and_non_negative(&g.image), "{method:?}");
         let c = g.stats.counters;
         assert_eq!(c.nonfinite_samples, 0, "{method:?}: {c:?}");
         let gs = g.stats.guiding.as_ref().unwrap();
