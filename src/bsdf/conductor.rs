@@ -45,19 +45,6 @@ impl RoughConductor {
     }
 
     #[inline]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Spectrum {
-        self.eval_pdf(wo, wi).0
-    }
-
-    #[inline]
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        self.distr.reflection_pdf(wo, wi)
-    }
-
-    #[inline]
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;

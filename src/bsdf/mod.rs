@@ -286,145 +286,66 @@ impl Bsdf {
     /// f(wo, wi)·|cos θ_i| of the non-delta part.
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Spectrum {
-        let (wo, wi) = if self.mirrored(wo) {
-            (flip(wo), flip(wi))
-        } else {
-            (wo, wi)
-        };
-        let v = match self.model {
-            BsdfModel::Diffuse { reflectance } => diffuse::eval(reflectance, wo, wi),
-            BsdfModel::RoughConductor {
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).eval(wo, wi),
-            BsdfModel::RoughPlastic {
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-                table,
-            } => {
-                Self::rough_plastic(
-                    alpha,
-                    eta,
-                    diffuse_reflectance,
-                    specular_sampling_weight,
-                    table,
-                )
-                .eval_pdf(wo, wi)
-                .0
-            }
-            BsdfModel::Plastic {
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-            } => plastic_model(eta, diffuse_reflectance, specular_sampling_weight).eval(wo, wi),
-            BsdfModel::Conductor { .. }
-            | BsdfModel::Dielectric { .. }
-            | BsdfModel::ThinDielectric { .. } => Spectrum::ZERO,
-        };
-        sanitize(v)
+        self.eval_pdf(wo, wi).0
     }
 
     /// Solid-angle density of `sample`'s non-delta part at `wi`.
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (wo, wi) = if self.mirrored(wo) {
-            (flip(wo), flip(wi))
-        } else {
-            (wo, wi)
-        };
-        let p = match self.model {
-            BsdfModel::Diffuse { .. } => diffuse::pdf(wo, wi),
-            BsdfModel::RoughConductor {
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).pdf(wo, wi),
-            BsdfModel::RoughPlastic {
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-                table,
-            } => {
-                Self::rough_plastic(
-                    alpha,
-                    eta,
-                    diffuse_reflectance,
-                    specular_sampling_weight,
-                    table,
-                )
-                .eval_pdf(wo, wi)
-                .1
-            }
-            BsdfModel::Plastic {
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-            } => plastic_model(eta, diffuse_reflectance, specular_sampling_weight).pdf(wo, wi),
-            BsdfModel::Conductor { .. }
-            | BsdfModel::Dielectric { .. }
-            | BsdfModel::ThinDielectric { .. } => 0.0,
-        };
-        if p.is_finite() { p.max(0.0) } else { 0.0 }
+        self.eval_pdf(wo, wi).1
     }
 
-    /// (eval, pdf) in one call, sharing the microfacet terms.
+    /// (eval, pdf) in one call, with one dispatch and one mirroring for
+    /// both: rough plastic computes them together, and every caller in the
+    /// path loop wants both. Never NaN, Inf or negative.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
-        // The same guards as `eval` and `pdf`: never NaN, Inf or negative.
         let (f, p) = self.eval_pdf_unguarded(wo, wi);
         (sanitize(f), if p.is_finite() { p.max(0.0) } else { 0.0 })
     }
 
     #[inline]
     fn eval_pdf_unguarded(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
+        let (wo, wi) = if self.mirrored(wo) {
+            (flip(wo), flip(wi))
+        } else {
+            (wo, wi)
+        };
         match self.model {
-            // One dispatch and one mirroring for both (not `eval` then `pdf`).
             BsdfModel::Diffuse { reflectance } => {
-                let (wo, wi) = if self.mirrored(wo) {
-                    (flip(wo), flip(wi))
-                } else {
-                    (wo, wi)
-                };
                 (diffuse::eval(reflectance, wo, wi), diffuse::pdf(wo, wi))
             }
             BsdfModel::RoughConductor {
                 alpha,
                 fresnel,
                 specular_reflectance,
-            } => {
-                let (wo, wi) = if self.mirrored(wo) {
-                    (flip(wo), flip(wi))
-                } else {
-                    (wo, wi)
-                };
-                Self::rough_conductor(alpha, fresnel, specular_reflectance).eval_pdf(wo, wi)
-            }
+            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).eval_pdf(wo, wi),
             BsdfModel::RoughPlastic {
                 alpha,
                 eta,
                 diffuse_reflectance,
                 specular_sampling_weight,
                 table,
+            } => Self::rough_plastic(
+                alpha,
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
+                table,
+            )
+            .eval_pdf(wo, wi),
+            BsdfModel::Plastic {
+                eta,
+                diffuse_reflectance,
+                specular_sampling_weight,
             } => {
-                let (wo, wi) = if self.mirrored(wo) {
-                    (flip(wo), flip(wi))
-                } else {
-                    (wo, wi)
-                };
-                Self::rough_plastic(
-                    alpha,
-                    eta,
-                    diffuse_reflectance,
-                    specular_sampling_weight,
-                    table,
-                )
-                .eval_pdf(wo, wi)
+                let m = plastic_model(eta, diffuse_reflectance, specular_sampling_weight);
+                (m.eval(wo, wi), m.pdf(wo, wi))
             }
-            _ => (self.eval(wo, wi), self.pdf(wo, wi)),
+            // Delta lobes only: nothing in the non-delta part.
+            BsdfModel::Conductor { .. }
+            | BsdfModel::Dielectric { .. }
+            | BsdfModel::ThinDielectric { .. } => (Spectrum::ZERO, 0.0),
         }
     }
 
