@@ -12,12 +12,28 @@ use ltcguide::guiding::guide::WeightModel;
 use ltcguide::guiding::product::{CosineLobes, ProductCache, ProductModel, ProductWeights};
 use ltcguide::guiding::quadtree::{QuadNode, QuadTree};
 use ltcguide::integrator::guide::VertexContext;
+use ltcguide::ltc::table::LtcTable;
 use ltcguide::ltc::{LtcOptions, ProductKernel};
 use ltcguide::math::Frame;
 use ltcguide::render::default_ltc_table;
 use ltcguide::sampling::{Rng, square_to_uniform_sphere};
 use ltcguide::stats::chi2::{Chi2Config, chi2_square_expected};
 use ltcguide::texture::Texture;
+
+/// The paper's product at every vertex (its cosine product included), with
+/// the LTC API's accurate options and no lobe reuse: the model these tests
+/// check unless they say otherwise.
+fn paper_model(table: &LtcTable, kernel: ProductKernel) -> ProductModel<'_> {
+    ProductModel {
+        table,
+        kernel,
+        options: LtcOptions::default(),
+        radiance_only: false,
+        cosine_lobes: CosineLobes::Product,
+        product_vertices: 0,
+        reuse_in_pixel: false,
+    }
+}
 
 /// A random quadtree of about `n` nodes, depth ≤ 9, with some zero cells.
 fn random_tree(rng: &mut Rng, n: usize) -> QuadTree {
@@ -183,15 +199,7 @@ fn product_sampling_matches_its_pdf_chi2() {
         ProductKernel::Optimized,
         ProductKernel::Naive,
     ] {
-        let model = ProductModel {
-            table,
-            kernel,
-            options: LtcOptions::default(),
-            radiance_only: false,
-            cosine_lobes: CosineLobes::Product,
-            product_vertices: 0,
-            reuse_in_pixel: false,
-        };
+        let model = paper_model(table, kernel);
         // The f64 naive kernel is slow; a third of the cases suffice for it.
         let stride = if kernel == ProductKernel::Naive { 3 } else { 1 };
         for (ci, case) in cases.iter().enumerate().step_by(stride) {
@@ -229,15 +237,7 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
     // The test must be able to fail: expected counts from radiance-only
     // weights do not describe product samples of a glossy lobe.
     let table = default_ltc_table().unwrap();
-    let model = ProductModel {
-        table,
-        kernel: ProductKernel::Simd,
-        options: LtcOptions::default(),
-        radiance_only: false,
-        cosine_lobes: CosineLobes::Product,
-        product_vertices: 0,
-        reuse_in_pixel: false,
-    };
+    let model = paper_model(table, ProductKernel::Simd);
     let mut rng = Rng::new(77, 1);
     let tree = random_tree(&mut rng, 200);
     let case = Case {
@@ -283,15 +283,7 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
 #[test]
 fn pdf_of_a_sampled_direction_is_the_returned_pdf() {
     let table = default_ltc_table().unwrap();
-    let model = ProductModel {
-        table,
-        kernel: ProductKernel::Simd,
-        options: LtcOptions::default(),
-        radiance_only: false,
-        cosine_lobes: CosineLobes::Product,
-        product_vertices: 0,
-        reuse_in_pixel: false,
-    };
+    let model = paper_model(table, ProductKernel::Simd);
     let mut rng = Rng::new(5, 5);
     for case in cases(&mut rng.clone()) {
         let tree = random_tree(&mut rng, 300);
@@ -315,15 +307,7 @@ fn product_weights_concentrate_where_the_bsdf_is() {
     // and sampling follows the BSDF lobe (mean cosine to the reflection
     // direction close to 1 for a narrow lobe).
     let table = default_ltc_table().unwrap();
-    let model = ProductModel {
-        table,
-        kernel: ProductKernel::Simd,
-        options: LtcOptions::default(),
-        radiance_only: false,
-        cosine_lobes: CosineLobes::Product,
-        product_vertices: 0,
-        reuse_in_pixel: false,
-    };
+    let model = paper_model(table, ProductKernel::Simd);
     let tree = QuadTree::uniform(1.0);
     let case = Case {
         alpha: 0.02,
@@ -359,13 +343,8 @@ fn product_weights_concentrate_where_the_bsdf_is() {
 fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
     let table = default_ltc_table().unwrap();
     let model = |cosine_lobes| ProductModel {
-        table,
-        kernel: ProductKernel::Simd,
-        options: LtcOptions::default(),
-        radiance_only: false,
         cosine_lobes,
-        product_vertices: 0,
-        reuse_in_pixel: false,
+        ..paper_model(table, ProductKernel::Simd)
     };
     let mut rng = Rng::new(11, 4);
     let tree = random_tree(&mut rng, 200);
@@ -479,13 +458,9 @@ fn only_the_first_vertices_take_product_weights() {
         (0, 9, true),
     ] {
         let model = ProductModel {
-            table,
-            kernel: ProductKernel::Simd,
-            options: LtcOptions::default(),
-            radiance_only: false,
             cosine_lobes: CosineLobes::Radiance,
             product_vertices,
-            reuse_in_pixel: false,
+            ..paper_model(table, ProductKernel::Simd)
         };
         let ctx = VertexContext {
             p: Vec3::ZERO,
