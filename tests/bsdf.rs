@@ -500,19 +500,7 @@ fn diffuse_albedo_numeric(p: &RoughPlastic, wo: Vec3) -> f64 {
 
 fn rough_plastic_parts(b: &Bsdf) -> RoughPlastic {
     match b.model {
-        BsdfModel::RoughPlastic {
-            alpha,
-            eta,
-            diffuse_reflectance,
-            specular_sampling_weight,
-            table,
-        } => RoughPlastic {
-            distr: Ggx::new(alpha),
-            eta,
-            diffuse_reflectance,
-            specular_sampling_weight,
-            table,
-        },
+        BsdfModel::RoughPlastic(p) => p,
         _ => unreachable!(),
     }
 }

@@ -1,8 +1,7 @@
 //! The lobe decomposition of each model for LTC product guiding: the
 //! weights and roughness that [`Lobes`] documents, with its approximations.
 
-use super::{Bsdf, BsdfModel, GgxLobe, Lobes, conductor, flip, fresnel};
-use crate::bsdf::microfacet::Ggx;
+use super::{Bsdf, BsdfModel, GgxLobe, Lobes, conductor, flip, fresnel, plastic};
 use crate::math::luminance;
 use glam::Vec3;
 
@@ -23,16 +22,12 @@ impl Bsdf {
             BsdfModel::Diffuse { reflectance } if front => {
                 l.diffuse = nonneg(luminance(reflectance));
             }
-            BsdfModel::RoughConductor {
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } if front => {
+            BsdfModel::RoughConductor(m) if front => {
                 l.ggx[0] = GgxLobe {
                     weight: nonneg(luminance(
-                        specular_reflectance * conductor::fresnel(&fresnel, cos_o),
+                        m.specular_reflectance * conductor::fresnel(&m.fresnel, cos_o),
                     )),
-                    alpha: Ggx::new(alpha).alpha(),
+                    alpha: m.distr.alpha(),
                 };
                 l.ggx_count = 1;
             }
@@ -44,16 +39,16 @@ impl Bsdf {
                     specular_reflectance * conductor::fresnel(&fresnel, cos_o),
                 ));
             }
-            BsdfModel::RoughPlastic {
-                alpha,
+            BsdfModel::RoughPlastic(plastic::RoughPlastic {
+                distr,
                 eta,
                 diffuse_reflectance,
                 table,
                 ..
-            } if front => {
+            }) if front => {
                 l.ggx[0] = GgxLobe {
                     weight: nonneg(fresnel::fresnel_dielectric_r(cos_o, eta)),
-                    alpha: Ggx::new(alpha).alpha(),
+                    alpha: distr.alpha(),
                 };
                 l.ggx_count = 1;
                 l.diffuse = nonneg(

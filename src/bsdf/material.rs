@@ -1,7 +1,9 @@
 //! Building a [`Material`] from scene parameters (validation, Mitsuba's
 //! derived constants) and resolving its textures into a [`Bsdf`].
 
+use super::conductor::RoughConductor;
 use super::microfacet::Ggx;
+use super::plastic::RoughPlastic;
 use super::{
     Bsdf, BsdfModel, ConductorFresnel, Derived, Material, MaterialKind, plastic, plastic_tables,
 };
@@ -170,11 +172,11 @@ impl Material {
                 alpha,
                 fresnel,
                 specular_reflectance,
-            } => BsdfModel::RoughConductor {
-                alpha: *alpha,
+            } => BsdfModel::RoughConductor(RoughConductor {
+                distr: Ggx::new(*alpha),
                 fresnel: *fresnel,
                 specular_reflectance: tex(specular_reflectance),
-            },
+            }),
             MaterialKind::Conductor {
                 fresnel,
                 specular_reflectance,
@@ -193,13 +195,13 @@ impl Material {
                     Some(t) if t.eta == *eta && t.alpha == Ggx::new(*alpha).alpha() => t,
                     _ => plastic_tables::table_for(*alpha, *eta),
                 };
-                BsdfModel::RoughPlastic {
-                    alpha: *alpha,
+                BsdfModel::RoughPlastic(RoughPlastic {
+                    distr: Ggx::new(*alpha),
                     eta: *eta,
                     diffuse_reflectance: tex(diffuse_reflectance),
                     specular_sampling_weight: self.derived.specular_sampling_weight,
                     table,
-                }
+                })
             }
             MaterialKind::Plastic {
                 eta,

@@ -36,7 +36,6 @@ pub mod plastic_tables;
 use crate::math::{Spectrum, is_finite3};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
-use microfacet::Ggx;
 use plastic_tables::RoughPlasticTable;
 
 /// Complex index of refraction of a conductor, or Fresnel = 1 (`material none`).
@@ -200,24 +199,15 @@ pub enum BsdfModel {
     Diffuse {
         reflectance: Spectrum,
     },
-    RoughConductor {
-        alpha: f32,
-        fresnel: ConductorFresnel,
-        specular_reflectance: Spectrum,
-    },
+    /// Built once per shading point (α clamped by
+    /// [`microfacet::Ggx::new`]) and queried as it is.
+    RoughConductor(conductor::RoughConductor),
     Conductor {
         fresnel: ConductorFresnel,
         specular_reflectance: Spectrum,
     },
-    RoughPlastic {
-        alpha: f32,
-        eta: f32,
-        diffuse_reflectance: Spectrum,
-        /// Mitsuba's s̄/(d̄ + s̄), from the texture mean (not the local value).
-        specular_sampling_weight: f32,
-        /// Interned T(μ)/R_int table for (alpha, eta).
-        table: &'static RoughPlasticTable,
-    },
+    /// Built once per shading point, as `RoughConductor`.
+    RoughPlastic(plastic::RoughPlastic),
     Plastic {
         eta: f32,
         diffuse_reflectance: Spectrum,
@@ -253,36 +243,6 @@ impl Bsdf {
         self.two_sided && wo.z < 0.0
     }
 
-    #[inline]
-    fn rough_conductor(
-        alpha: f32,
-        fresnel: ConductorFresnel,
-        r: Spectrum,
-    ) -> conductor::RoughConductor {
-        conductor::RoughConductor {
-            distr: Ggx::new(alpha),
-            fresnel,
-            specular_reflectance: r,
-        }
-    }
-
-    #[inline]
-    fn rough_plastic(
-        alpha: f32,
-        eta: f32,
-        rho: Spectrum,
-        w: f32,
-        table: &'static RoughPlasticTable,
-    ) -> plastic::RoughPlastic {
-        plastic::RoughPlastic {
-            distr: Ggx::new(alpha),
-            eta,
-            diffuse_reflectance: rho,
-            specular_sampling_weight: w,
-            table,
-        }
-    }
-
     /// f(wo, wi)·|cos θ_i| of the non-delta part.
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Spectrum {
@@ -315,25 +275,8 @@ impl Bsdf {
             BsdfModel::Diffuse { reflectance } => {
                 (diffuse::eval(reflectance, wo, wi), diffuse::pdf(wo, wi))
             }
-            BsdfModel::RoughConductor {
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).eval_pdf(wo, wi),
-            BsdfModel::RoughPlastic {
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-                table,
-            } => Self::rough_plastic(
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-                table,
-            )
-            .eval_pdf(wo, wi),
+            BsdfModel::RoughConductor(m) => m.eval_pdf(wo, wi),
+            BsdfModel::RoughPlastic(m) => m.eval_pdf(wo, wi),
             BsdfModel::Plastic {
                 eta,
                 diffuse_reflectance,
@@ -358,29 +301,12 @@ impl Bsdf {
         let wo = if mirrored { flip(wo) } else { wo };
         let s = match self.model {
             BsdfModel::Diffuse { reflectance } => diffuse::sample(reflectance, wo, u),
-            BsdfModel::RoughConductor {
-                alpha,
-                fresnel,
-                specular_reflectance,
-            } => Self::rough_conductor(alpha, fresnel, specular_reflectance).sample(wo, u),
+            BsdfModel::RoughConductor(m) => m.sample(wo, u),
             BsdfModel::Conductor {
                 fresnel,
                 specular_reflectance,
             } => conductor::sample_smooth(&fresnel, specular_reflectance, wo),
-            BsdfModel::RoughPlastic {
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-                table,
-            } => Self::rough_plastic(
-                alpha,
-                eta,
-                diffuse_reflectance,
-                specular_sampling_weight,
-                table,
-            )
-            .sample(wo, u_lobe, u),
+            BsdfModel::RoughPlastic(m) => m.sample(wo, u_lobe, u),
             BsdfModel::Plastic {
                 eta,
                 diffuse_reflectance,
