@@ -43,6 +43,10 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         threads: usize,
     },
+    /// Where product guiding wins or loses against radiance guiding: per-sample variance,
+    /// cost, the guide distributions at a fixed BSDF fraction, approximation error and roulette,
+    /// each a side-by-side ratio.
+    Attribute(ltcguide::experiment::attribution::AttributeArgs),
     /// Fit the LTC table to GGX·cos (Heitz et al. 2016) and write it with its error summary.
     FitLtc {
         /// Output directory (the committed table lives in data/).
@@ -269,6 +273,7 @@ fn main() -> ExitCode {
             spp,
             threads,
         } => cmd_ablation(&scene, spp, threads),
+        Command::Attribute(args) => cmd_attribute(&args),
         Command::FitLtc {
             out,
             resolution,
@@ -415,7 +420,10 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         png.display()
     );
     if args.aov.contains(&Aov::Alpha) {
-        write_alpha_aov(&scene, &result, &args.out)?;
+        let Some(tree) = &result.tree else {
+            return Err("--aov alpha needs a guided method (--method radiance or product)".into());
+        };
+        ltcguide::guiding::aov::write_alpha_aov(&scene, tree, &args.out)?;
     }
     if let Some(path) = &args.stats_json {
         let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
@@ -424,34 +432,6 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
         ltcguide::film::commit_temp(&tmp, path)?;
     }
-    Ok(())
-}
-
-fn write_alpha_aov(
-    scene: &Scene,
-    result: &ltcguide::render::RenderResult,
-    out: &Path,
-) -> Result<(), String> {
-    let Some(tree) = &result.tree else {
-        return Err("--aov alpha needs a guided method (--method radiance or product)".into());
-    };
-    let alpha = ltcguide::guiding::aov::alpha_aov(scene, tree);
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let stem = out.with_extension("");
-    let exr = PathBuf::from(format!("{}-alpha.exr", stem.display()));
-    let png = exr.with_extension("png");
-    let values: Vec<glam::Vec3> = alpha
-        .iter()
-        .map(|a| glam::Vec3::splat(a.unwrap_or(0.0)))
-        .collect();
-    write_rgb(&exr, w, h, &values)?;
-    // No vertex (background, delta-only): black.
-    let rgb: Vec<u8> = alpha
-        .iter()
-        .flat_map(|a| a.map_or([0, 0, 0], ltcguide::experiment::colormap::viridis))
-        .collect();
-    ltcguide::film::png_io::write_png_rgb8(&png, w, h, &rgb)?;
-    eprintln!("alpha AOV -> {} and {}", exr.display(), png.display());
     Ok(())
 }
 
@@ -520,6 +500,16 @@ fn cmd_ablation(path: &Path, spp: u32, threads: usize) -> Result<(), String> {
     let scene = load(path)?;
     let settings = default_path_settings(&scene, Method::Product);
     let out = ltcguide::experiment::ablation::run_ablation(&scene, spp, threads, settings, true)?;
+    println!("{}", out.markdown);
+    Ok(())
+}
+
+fn cmd_attribute(args: &ltcguide::experiment::attribution::AttributeArgs) -> Result<(), String> {
+    use ltcguide::experiment::attribution::{check, run_attribution};
+    // The arguments first: a bad one fails before a scene is loaded.
+    check(&args.options(None))?;
+    let scene = load(&args.scene)?;
+    let out = run_attribution(&scene, &args.options(scene.max_depth.or(Some(10))))?;
     println!("{}", out.markdown);
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! plots and summaries.
 
 pub mod ablation;
+pub mod attribution;
 pub mod colormap;
 pub mod compare;
 pub mod curves;

@@ -6,6 +6,7 @@ use super::sdtree::SdTree;
 use crate::math::Frame;
 use crate::scene::Scene;
 use glam::Vec2;
+use std::path::{Path, PathBuf};
 
 /// α per pixel, `None` where the camera ray leaves the scene or meets only
 /// delta surfaces.
@@ -31,4 +32,27 @@ pub fn alpha_aov(scene: &Scene, tree: &SdTree) -> Vec<Option<f32>> {
             None
         })
         .collect()
+}
+
+/// Writes [`alpha_aov`] next to the render `out` as `OUT-alpha.exr` (α in
+/// every channel, 0 where there is no vertex) and a false-colour PNG
+/// (black there).
+pub fn write_alpha_aov(scene: &Scene, tree: &SdTree, out: &Path) -> Result<(), String> {
+    let alpha = alpha_aov(scene, tree);
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let stem = out.with_extension("");
+    let exr = PathBuf::from(format!("{}-alpha.exr", stem.display()));
+    let png = exr.with_extension("png");
+    let values: Vec<glam::Vec3> = alpha
+        .iter()
+        .map(|a| glam::Vec3::splat(a.unwrap_or(0.0)))
+        .collect();
+    crate::film::exr_io::write_rgb(&exr, w, h, &values)?;
+    let rgb: Vec<u8> = alpha
+        .iter()
+        .flat_map(|a| a.map_or([0, 0, 0], crate::experiment::colormap::viridis))
+        .collect();
+    crate::film::png_io::write_png_rgb8(&png, w, h, &rgb)?;
+    eprintln!("alpha AOV -> {} and {}", exr.display(), png.display());
+    Ok(())
 }

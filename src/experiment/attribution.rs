@@ -1,0 +1,444 @@
+//! `ltcguide attribute`: where product guiding wins or loses against
+//! radiance guiding on one scene, factor by factor.
+//!
+//! The equal-time question ("is the product better?") mixes four things:
+//! how much less variance a product sample carries, how much more it costs,
+//! how much of the mixture the learned BSDF fraction α leaves to the guide,
+//! and how roulette trades path length for variance. Each factor here is a
+//! ratio of two renders of the same scene with the same seed and settings,
+//! run side by side on equal shares of the threads (so that a shared
+//! machine's drift meets both), with every part of the method forced on
+//! (`use_plan` off). A ratio below 1 favours the product.
+//!
+//! Variances come from the renders' own samples, so no reference image is
+//! needed:
+//! - *variance per sample* is the final iteration's mean over pixels of the
+//!   single-sample variance (what one more sample costs in variance);
+//! - *expected relMSE* is the mean over pixels of the combined image's
+//!   variance over (R² + 0.01), the normaliser of DESIGN §6's relMSE, with
+//!   R the mean of the pair's two images (one normaliser for both, so that
+//!   neither image's noise enters its own scale);
+//! - *equal-time relMSE* is expected relMSE × seconds: relMSE falls as
+//!   1/time, so this ratio is what the two methods reach in equal time at
+//!   this budget, training included, without the noise of an error against
+//!   a reference.
+//!
+//! Heavy-tailed estimators (a firefly carries most of a hard scene's
+//! relMSE) make every variance from a few samples an underestimate of the
+//! tail: read the per-seed columns before the mean.
+
+use crate::film::image::Image;
+use crate::guiding::aov::alpha_aov;
+use crate::integrator::path::{PathSettings, RouletteMode};
+use crate::ltc::ProductKernel;
+use crate::render::{Budget, Method, RenderOptions, RenderResult, render};
+use crate::scene::Scene;
+use std::fmt::Write;
+
+/// `ltcguide attribute`'s arguments.
+#[derive(clap::Args, Clone, Debug)]
+pub struct AttributeArgs {
+    pub scene: std::path::PathBuf,
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
+    /// Seeds 1..=N; each factor is one side-by-side pair per seed.
+    #[arg(long, default_value_t = 2)]
+    pub seeds: u32,
+    /// Split evenly between the two renders of a pair (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Next-event estimation for both methods (the paper's setting is off).
+    #[arg(long)]
+    pub nee: bool,
+    /// Roulette of both methods (the paper's: adrrs).
+    #[arg(long, value_enum, default_value_t = RouletteMode::Adrrs)]
+    pub rr: RouletteMode,
+    /// The roulette the roulette factor compares with.
+    #[arg(long, value_enum, default_value_t = RouletteMode::Classic)]
+    pub other_rr: RouletteMode,
+    /// BSDF fraction of the guide-distribution factor, in [0, 1).
+    #[arg(long, default_value_t = 0.2)]
+    pub guide_fraction: f32,
+    /// Leave out the exact-integrals factor (its product runs ~3× longer).
+    #[arg(long)]
+    pub no_exact: bool,
+}
+
+impl AttributeArgs {
+    /// The options, with the scene's `max_depth`.
+    pub fn options(&self, max_depth: Option<u32>) -> AttributionOptions {
+        AttributionOptions {
+            spp: self.spp,
+            seeds: self.seeds,
+            threads: self.threads,
+            path: PathSettings {
+                nee: self.nee,
+                max_depth,
+                roulette: self.rr,
+                adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
+            },
+            guide_fraction: self.guide_fraction,
+            other_roulette: self.other_rr,
+            exact_integrals: !self.no_exact,
+            progress: true,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct AttributionOptions {
+    pub spp: u32,
+    /// Seeds 1..=seeds, one pair of renders per factor and seed.
+    pub seeds: u32,
+    /// 0 = all cores, split evenly between the two sides of a pair.
+    pub threads: usize,
+    /// The settings both methods run with (the paper's: no NEE, ADRRS).
+    pub path: PathSettings,
+    /// The fixed BSDF fraction of the guide-distribution factor: small, so
+    /// that most samples follow the guide and its distribution shows.
+    pub guide_fraction: f32,
+    /// The roulette the roulette factor compares against `path.roulette`.
+    pub other_roulette: RouletteMode,
+    /// Also run the exact f64 integrals (the slowest pair, ~3× a render).
+    pub exact_integrals: bool,
+    pub progress: bool,
+}
+
+/// One row of the attribution: a name, what it isolates, and its value
+/// per seed.
+#[derive(Clone, Debug)]
+pub struct Factor {
+    pub name: String,
+    pub isolates: &'static str,
+    pub per_seed: Vec<f64>,
+}
+
+impl Factor {
+    /// Geometric mean over the seeds (the factors are ratios).
+    pub fn mean(&self) -> f64 {
+        let logs: Vec<f64> = self.per_seed.iter().map(|x| x.ln()).collect();
+        (logs.iter().sum::<f64>() / logs.len().max(1) as f64).exp()
+    }
+}
+
+/// Rows of [`AttributionOutcome::factors`] the summary line reads.
+pub const EXPECTED_RELMSE: usize = 3;
+pub const EQUAL_TIME: usize = 4;
+
+pub struct AttributionOutcome {
+    pub factors: Vec<Factor>,
+    /// Mean learned BSDF fraction at the first vertex, (product, radiance),
+    /// per seed.
+    pub alpha: Vec<(f64, f64)>,
+    pub markdown: String,
+}
+
+/// What one render contributes to the factors.
+struct Figures {
+    seconds: f64,
+    final_seconds_per_spp: f64,
+    final_variance: f64,
+    image: Image,
+    variance: Vec<f32>,
+    mean_alpha: f64,
+}
+
+fn figures(scene: &Scene, r: RenderResult) -> Result<Figures, String> {
+    let guiding = r
+        .stats
+        .guiding
+        .as_ref()
+        .ok_or("attribution needs guided renders")?;
+    let last = guiding
+        .iterations
+        .last()
+        .ok_or("a guided render reported no iteration")?;
+    let final_variance = last.mean_variance;
+    let alphas: Vec<f32> = r
+        .tree
+        .as_ref()
+        .map(|t| alpha_aov(scene, t).into_iter().flatten().collect())
+        .unwrap_or_default();
+    let mean_alpha = alphas.iter().map(|&a| a as f64).sum::<f64>() / alphas.len().max(1) as f64;
+    Ok(Figures {
+        seconds: r.stats.seconds,
+        final_seconds_per_spp: last.seconds / last.spp.max(1) as f64,
+        final_variance,
+        image: r.image,
+        variance: r.variance,
+        mean_alpha,
+    })
+}
+
+/// Expected relMSE of each image of a pair, both normalised by the pair's
+/// mean image.
+fn expected_relmse(a: &Figures, b: &Figures) -> (f64, f64) {
+    let mut sums = (0.0f64, 0.0f64);
+    for (i, (pa, pb)) in a.image.pixels.iter().zip(&b.image.pixels).enumerate() {
+        let r = ((*pa + *pb) * 0.5).to_array().map(|c| c as f64);
+        let norm = r.iter().map(|c| 1.0 / (c * c + 1e-2)).sum::<f64>() / 3.0;
+        sums.0 += a.variance[i] as f64 * norm;
+        sums.1 += b.variance[i] as f64 * norm;
+    }
+    let n = a.image.pixels.len().max(1) as f64;
+    (sums.0 / n, sums.1 / n)
+}
+
+/// Renders `a` and `b` at the same time, each on half of the threads.
+fn side_by_side(
+    scene: &Scene,
+    a: &RenderOptions,
+    b: &RenderOptions,
+) -> Result<(Figures, Figures), String> {
+    let (ra, rb) = std::thread::scope(|s| {
+        let ha = s.spawn(|| render(scene, a));
+        let hb = s.spawn(|| render(scene, b));
+        let join = |h: std::thread::ScopedJoinHandle<'_, Result<RenderResult, String>>| {
+            h.join().unwrap_or_else(|_| Err("a render panicked".into()))
+        };
+        (join(ha), join(hb))
+    });
+    Ok((figures(scene, ra?)?, figures(scene, rb?)?))
+}
+
+/// Training takes 1 + 2 spp before the final iteration (or 1 + 2 + 4
+/// and a final one of at least 4), which needs 4 for a variance.
+const MIN_SPP: u32 = 8;
+
+/// Rejects options no attribution can run with.
+pub fn check(opts: &AttributionOptions) -> Result<(), String> {
+    if opts.spp < MIN_SPP {
+        return Err(format!(
+            "--spp must be at least {MIN_SPP}: the final iteration needs 4 samples per pixel for its variance"
+        ));
+    }
+    if opts.seeds == 0 {
+        return Err("--seeds must be at least 1".into());
+    }
+    if !(opts.guide_fraction >= 0.0 && opts.guide_fraction < 1.0) {
+        return Err(format!(
+            "--guide-fraction must be in [0, 1) (1 would never sample the guide), got {}",
+            opts.guide_fraction
+        ));
+    }
+    if opts.other_roulette == opts.path.roulette {
+        return Err("the roulette factor needs a roulette other than the run's".into());
+    }
+    Ok(())
+}
+
+pub fn run_attribution(
+    scene: &Scene,
+    opts: &AttributionOptions,
+) -> Result<AttributionOutcome, String> {
+    check(opts)?;
+    let total = if opts.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        opts.threads
+    };
+    let side = (total / 2).max(1);
+    let base = |method: Method, seed: u64| RenderOptions {
+        method,
+        budget: Budget::Spp(opts.spp),
+        seed,
+        threads: side,
+        path: opts.path,
+        use_plan: false,
+        ..Default::default()
+    };
+    let roulette_name = |r: RouletteMode| match r {
+        RouletteMode::Classic => "classic",
+        RouletteMode::Adrrs => "adrrs",
+        RouletteMode::Off => "off",
+    };
+    let mut rows: Vec<Factor> = [
+        (
+            "seconds per spp, final iteration",
+            "overhead per sample once trained",
+        ),
+        ("seconds, whole run", "overhead, training included"),
+        (
+            "variance per sample, final iteration",
+            "the product's gain per sample, learned α",
+        ),
+        (
+            "expected relMSE of the image",
+            "the gain at equal spp, training included",
+        ),
+        ("equal-time relMSE", "the headline: gain × cost"),
+    ]
+    .into_iter()
+    .map(|(name, isolates)| Factor {
+        name: name.into(),
+        isolates,
+        per_seed: Vec::new(),
+    })
+    .collect();
+    let mut fixed = Factor {
+        name: format!(
+            "variance per sample, BSDF fraction fixed at {}",
+            opts.guide_fraction
+        ),
+        isolates: "the guide distributions themselves, mostly guided",
+        per_seed: Vec::new(),
+    };
+    let mut exact = Factor {
+        name: "variance per sample, exact f64 integrals / the guider's".into(),
+        isolates: "approximation error (product against product; < 1: exact helps)",
+        per_seed: Vec::new(),
+    };
+    let mut roulette = Factor {
+        name: format!(
+            "equal-time relMSE, roulette {} instead of {}",
+            roulette_name(opts.other_roulette),
+            roulette_name(opts.path.roulette)
+        ),
+        isolates: "roulette",
+        per_seed: Vec::new(),
+    };
+    let mut alpha = Vec::new();
+    let say = |what: &str, seed: u64| {
+        if opts.progress {
+            eprintln!("attribute: {what}, seed {seed}, {} spp", opts.spp);
+        }
+    };
+    for seed in 1..=opts.seeds as u64 {
+        say("product and radiance, learned α", seed);
+        let (p, r) = side_by_side(
+            scene,
+            &base(Method::Product, seed),
+            &base(Method::Radiance, seed),
+        )?;
+        let (ep, er) = expected_relmse(&p, &r);
+        let values = [
+            p.final_seconds_per_spp / r.final_seconds_per_spp,
+            p.seconds / r.seconds,
+            p.final_variance / r.final_variance,
+            ep / er,
+            (ep * p.seconds) / (er * r.seconds),
+        ];
+        for (row, v) in rows.iter_mut().zip(values) {
+            row.per_seed.push(v);
+        }
+        alpha.push((p.mean_alpha, r.mean_alpha));
+
+        say("product and radiance, fixed BSDF fraction", seed);
+        let with_fraction = |m| RenderOptions {
+            bsdf_fraction: Some(opts.guide_fraction),
+            ..base(m, seed)
+        };
+        let (pf, rf) = side_by_side(
+            scene,
+            &with_fraction(Method::Product),
+            &with_fraction(Method::Radiance),
+        )?;
+        fixed.per_seed.push(pf.final_variance / rf.final_variance);
+
+        if opts.exact_integrals {
+            say("product, exact integrals and the guider's", seed);
+            let naive = RenderOptions {
+                product_kernel: ProductKernel::Naive,
+                ..base(Method::Product, seed)
+            };
+            let (pn, ps) = side_by_side(scene, &naive, &base(Method::Product, seed))?;
+            exact.per_seed.push(pn.final_variance / ps.final_variance);
+        }
+
+        say("product and radiance, the other roulette", seed);
+        let other = |m| {
+            let mut o = base(m, seed);
+            o.path.roulette = opts.other_roulette;
+            o
+        };
+        let (po, ro) = side_by_side(scene, &other(Method::Product), &other(Method::Radiance))?;
+        let (epo, ero) = expected_relmse(&po, &ro);
+        roulette
+            .per_seed
+            .push((epo * po.seconds) / (ero * ro.seconds));
+    }
+    rows.push(fixed);
+    if opts.exact_integrals {
+        rows.push(exact);
+    }
+    rows.push(roulette);
+    for row in &rows {
+        if let Some(bad) = row.per_seed.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+            return Err(format!(
+                "'{}' came out {bad}: a render had no usable variance (too few spp?)",
+                row.name
+            ));
+        }
+    }
+    let markdown = markdown(scene, opts, side, &rows, &alpha);
+    Ok(AttributionOutcome {
+        factors: rows,
+        alpha,
+        markdown,
+    })
+}
+
+fn markdown(
+    scene: &Scene,
+    opts: &AttributionOptions,
+    side: usize,
+    rows: &[Factor],
+    alpha: &[(f64, f64)],
+) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
+         NEE {}, every part of the method forced on. < 1 favours the product.\n",
+        scene.name,
+        opts.spp,
+        opts.seeds,
+        if opts.path.nee { "on" } else { "off" },
+    );
+    let seeds: String = (1..=opts.seeds).map(|s| format!(" seed {s} |")).collect();
+    let rule: String = (0..opts.seeds).map(|_| "---|").collect();
+    let _ = writeln!(md, "| factor | isolates |{seeds} mean |");
+    let _ = writeln!(md, "|---|---|{rule}---|");
+    for row in rows {
+        let values: String = row.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
+        let _ = writeln!(
+            md,
+            "| {} | {} |{values} {:.3} |",
+            row.name,
+            row.isolates,
+            row.mean()
+        );
+    }
+    let values: String = alpha
+        .iter()
+        .map(|(p, r)| format!(" {p:.2} / {r:.2} |"))
+        .collect();
+    let _ = writeln!(
+        md,
+        "| learned BSDF fraction α at the first vertex, product / radiance (pixel mean) | \
+         how much of the mixture is left to the guide |{values} |"
+    );
+    let _ = writeln!(
+        md,
+        "\nAt zero overhead the product would reach {:.2}× radiance's relMSE in equal time \
+         (its gain at equal spp); with its measured cost it reaches {:.2}×.",
+        rows[EXPECTED_RELMSE].mean(),
+        rows[EQUAL_TIME].mean()
+    );
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geometric_mean_of_ratios() {
+        let f = Factor {
+            name: String::new(),
+            isolates: "",
+            per_seed: vec![0.5, 2.0],
+        };
+        assert!((f.mean() - 1.0).abs() < 1e-12);
+    }
+}
