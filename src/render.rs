@@ -354,6 +354,41 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     })
 }
 
+/// The threads a `threads` setting means (0: every core).
+pub fn resolve_threads(threads: usize) -> usize {
+    if threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        threads
+    }
+}
+
+/// Each of `renders` renders run side by side gets an equal share of
+/// `threads` (0: every core), at least one (more renders than cores share
+/// the cores through the OS scheduler).
+pub fn side_by_side_share(threads: usize, renders: usize) -> usize {
+    (resolve_threads(threads) / renders.max(1)).max(1)
+}
+
+/// Renders every option set at the same time, each on its own pool (its
+/// `threads`): on a shared host they all meet the same load, so ratios
+/// between them are side-by-side measurements.
+pub fn render_side_by_side(
+    scene: &Scene,
+    runs: &[RenderOptions],
+) -> Vec<Result<RenderResult, String>> {
+    std::thread::scope(|s| {
+        let handles: Vec<_> = runs
+            .iter()
+            .map(|opts| s.spawn(move || render(scene, opts)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err("a render panicked".into())))
+            .collect()
+    })
+}
+
 fn render_unguided(
     scene: &Scene,
     opts: &RenderOptions,

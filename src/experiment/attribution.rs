@@ -28,10 +28,14 @@
 //! tail: read the per-seed columns before the mean.
 
 use crate::film::image::Image;
+use crate::film::metrics::RELMSE_EPSILON;
 use crate::guiding::aov::alpha_aov;
+use crate::guiding::sdtree::SdTree;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::ltc::ProductKernel;
-use crate::render::{Budget, Method, RenderOptions, RenderResult, render};
+use crate::render::{
+    Budget, Method, RenderOptions, RenderResult, render_side_by_side, side_by_side_share,
+};
 use crate::scene::Scene;
 use std::fmt::Write;
 
@@ -141,10 +145,23 @@ struct Figures {
     final_variance: f64,
     image: Image,
     variance: Vec<f32>,
-    mean_alpha: f64,
+    tree: Option<SdTree>,
 }
 
-fn figures(scene: &Scene, r: RenderResult) -> Result<Figures, String> {
+impl Figures {
+    /// Mean learned BSDF fraction at the pixels' first vertices (one
+    /// camera ray per pixel, so only for the pair that reports it).
+    fn mean_alpha(&self, scene: &Scene) -> f64 {
+        let alphas: Vec<f32> = self
+            .tree
+            .as_ref()
+            .map(|t| alpha_aov(scene, t).into_iter().flatten().collect())
+            .unwrap_or_default();
+        alphas.iter().map(|&a| a as f64).sum::<f64>() / alphas.len().max(1) as f64
+    }
+}
+
+fn figures(r: RenderResult) -> Result<Figures, String> {
     let guiding = r
         .stats
         .guiding
@@ -154,20 +171,13 @@ fn figures(scene: &Scene, r: RenderResult) -> Result<Figures, String> {
         .iterations
         .last()
         .ok_or("a guided render reported no iteration")?;
-    let final_variance = last.mean_variance;
-    let alphas: Vec<f32> = r
-        .tree
-        .as_ref()
-        .map(|t| alpha_aov(scene, t).into_iter().flatten().collect())
-        .unwrap_or_default();
-    let mean_alpha = alphas.iter().map(|&a| a as f64).sum::<f64>() / alphas.len().max(1) as f64;
     Ok(Figures {
         seconds: r.stats.seconds,
         final_seconds_per_spp: last.seconds / last.spp.max(1) as f64,
-        final_variance,
+        final_variance: last.mean_variance,
         image: r.image,
         variance: r.variance,
-        mean_alpha,
+        tree: r.tree,
     })
 }
 
@@ -177,7 +187,11 @@ fn expected_relmse(a: &Figures, b: &Figures) -> (f64, f64) {
     let mut sums = (0.0f64, 0.0f64);
     for (i, (pa, pb)) in a.image.pixels.iter().zip(&b.image.pixels).enumerate() {
         let r = ((*pa + *pb) * 0.5).to_array().map(|c| c as f64);
-        let norm = r.iter().map(|c| 1.0 / (c * c + 1e-2)).sum::<f64>() / 3.0;
+        let norm = r
+            .iter()
+            .map(|c| 1.0 / (c * c + RELMSE_EPSILON))
+            .sum::<f64>()
+            / 3.0;
         sums.0 += a.variance[i] as f64 * norm;
         sums.1 += b.variance[i] as f64 * norm;
     }
@@ -185,21 +199,20 @@ fn expected_relmse(a: &Figures, b: &Figures) -> (f64, f64) {
     (sums.0 / n, sums.1 / n)
 }
 
-/// Renders `a` and `b` at the same time, each on half of the threads.
+/// Renders `a` and `b` side by side.
 fn side_by_side(
     scene: &Scene,
-    a: &RenderOptions,
-    b: &RenderOptions,
+    a: RenderOptions,
+    b: RenderOptions,
 ) -> Result<(Figures, Figures), String> {
-    let (ra, rb) = std::thread::scope(|s| {
-        let ha = s.spawn(|| render(scene, a));
-        let hb = s.spawn(|| render(scene, b));
-        let join = |h: std::thread::ScopedJoinHandle<'_, Result<RenderResult, String>>| {
-            h.join().unwrap_or_else(|_| Err("a render panicked".into()))
-        };
-        (join(ha), join(hb))
-    });
-    Ok((figures(scene, ra?)?, figures(scene, rb?)?))
+    let mut results = render_side_by_side(scene, &[a, b]).into_iter();
+    let mut next = || {
+        results
+            .next()
+            .ok_or("a render is missing")?
+            .and_then(figures)
+    };
+    Ok((next()?, next()?))
 }
 
 /// Training takes 1 + 2 spp before the final iteration (or 1 + 2 + 4
@@ -233,12 +246,7 @@ pub fn run_attribution(
     opts: &AttributionOptions,
 ) -> Result<AttributionOutcome, String> {
     check(opts)?;
-    let total = if opts.threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        opts.threads
-    };
-    let side = (total / 2).max(1);
+    let side = side_by_side_share(opts.threads, 2);
     let base = |method: Method, seed: u64| RenderOptions {
         method,
         budget: Budget::Spp(opts.spp),
@@ -248,11 +256,7 @@ pub fn run_attribution(
         use_plan: false,
         ..Default::default()
     };
-    let roulette_name = |r: RouletteMode| match r {
-        RouletteMode::Classic => "classic",
-        RouletteMode::Adrrs => "adrrs",
-        RouletteMode::Off => "off",
-    };
+    let roulette_name = |r: RouletteMode| format!("{r:?}").to_lowercase();
     let mut rows: Vec<Factor> = [
         (
             "seconds per spp, final iteration",
@@ -308,8 +312,8 @@ pub fn run_attribution(
         say("product and radiance, learned α", seed);
         let (p, r) = side_by_side(
             scene,
-            &base(Method::Product, seed),
-            &base(Method::Radiance, seed),
+            base(Method::Product, seed),
+            base(Method::Radiance, seed),
         )?;
         let (ep, er) = expected_relmse(&p, &r);
         let values = [
@@ -322,7 +326,7 @@ pub fn run_attribution(
         for (row, v) in rows.iter_mut().zip(values) {
             row.per_seed.push(v);
         }
-        alpha.push((p.mean_alpha, r.mean_alpha));
+        alpha.push((p.mean_alpha(scene), r.mean_alpha(scene)));
 
         say("product and radiance, fixed BSDF fraction", seed);
         let with_fraction = |m| RenderOptions {
@@ -331,8 +335,8 @@ pub fn run_attribution(
         };
         let (pf, rf) = side_by_side(
             scene,
-            &with_fraction(Method::Product),
-            &with_fraction(Method::Radiance),
+            with_fraction(Method::Product),
+            with_fraction(Method::Radiance),
         )?;
         fixed.per_seed.push(pf.final_variance / rf.final_variance);
 
@@ -342,7 +346,7 @@ pub fn run_attribution(
                 product_kernel: ProductKernel::Naive,
                 ..base(Method::Product, seed)
             };
-            let (pn, ps) = side_by_side(scene, &naive, &base(Method::Product, seed))?;
+            let (pn, ps) = side_by_side(scene, naive, base(Method::Product, seed))?;
             exact.per_seed.push(pn.final_variance / ps.final_variance);
         }
 
@@ -352,7 +356,7 @@ pub fn run_attribution(
             o.path.roulette = opts.other_roulette;
             o
         };
-        let (po, ro) = side_by_side(scene, &other(Method::Product), &other(Method::Radiance))?;
+        let (po, ro) = side_by_side(scene, other(Method::Product), other(Method::Radiance))?;
         let (epo, ero) = expected_relmse(&po, &ro);
         roulette
             .per_seed

@@ -12,7 +12,10 @@ use crate::film::metrics::{mae, relmse};
 use crate::film::png_io::{write_png, write_png_rgb8};
 use crate::guiding::product::CosineLobes;
 use crate::integrator::path::{PathSettings, RouletteMode};
-use crate::render::{Budget, Method, RenderOptions, SnapshotPlan, render};
+use crate::render::{
+    Budget, Method, RenderOptions, SnapshotPlan, render, render_side_by_side, resolve_threads,
+    side_by_side_share,
+};
 use crate::scene::Scene;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -133,17 +136,12 @@ pub fn run_compare(
                     opts.seconds
                 );
             }
-            std::thread::scope(|s| {
-                let handles: Vec<_> = opts
-                    .methods
-                    .iter()
-                    .map(|&m| s.spawn(move || render(scene, &run_options(scene, m, run, opts))))
-                    .collect();
-                handles
-                    .into_iter()
-                    .map(|h| h.join().unwrap_or_else(|_| Err("a render panicked".into())))
-                    .collect::<Vec<_>>()
-            })
+            let runs: Vec<RenderOptions> = opts
+                .methods
+                .iter()
+                .map(|&m| run_options(scene, m, run, opts))
+                .collect();
+            render_side_by_side(scene, &runs)
         } else {
             opts.methods
                 .iter()
@@ -236,17 +234,12 @@ fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -
 
 /// The comparison's threads (0: every core).
 fn total_threads(opts: &CompareOptions) -> usize {
-    if opts.threads == 0 {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    } else {
-        opts.threads
-    }
+    resolve_threads(opts.threads)
 }
 
-/// Side by side, each method gets an equal share of the threads, at least
-/// one (more methods than cores share the cores through the OS scheduler).
+/// Side by side, each method gets an equal share of the threads.
 fn side_by_side_threads(opts: &CompareOptions) -> usize {
-    (total_threads(opts) / opts.methods.len().max(1)).max(1)
+    side_by_side_share(opts.threads, opts.methods.len())
 }
 
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {

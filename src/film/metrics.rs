@@ -2,11 +2,15 @@
 
 use super::image::Image;
 
+/// ε of relMSE's normaliser R² + ε (DESIGN §6): keeps dark pixels from
+/// dominating.
+pub const RELMSE_EPSILON: f64 = 1e-2;
+
 /// relMSE's term of one channel: (I − R)² / (R² + 1e-2).
 #[inline]
 fn relative_squared_error(i: f32, r: f32) -> f64 {
     let (iv, rv) = (i as f64, r as f64);
-    (iv - rv).powi(2) / (rv * rv + 1e-2)
+    (iv - rv).powi(2) / (rv * rv + RELMSE_EPSILON)
 }
 
 /// relMSE = mean over pixels and channels of (I − R)² / (R² + 1e-2).
