@@ -311,6 +311,9 @@ fn load(path: &Path) -> Result<Scene, String> {
     Ok(scene)
 }
 
+const ALPHA_NEEDS_GUIDING: &str =
+    "--aov alpha needs a guided method (--method radiance or product)";
+
 fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     let scene = load(&args.scene)?;
     let budget = match (args.spp, args.time) {
@@ -378,11 +381,21 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             args.out.display()
         ));
     }
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| format!("cannot create '{}': {e}", dir.display()))?;
+    let plan = ltcguide::render::run_plan(&scene, &opts);
+    if args.aov.contains(&Aov::Alpha) && !plan.guiding {
+        return Err(match args.method {
+            Method::Pt => ALPHA_NEEDS_GUIDING.into(),
+            _ => format!(
+                "--aov alpha: this run learns no BSDF fraction ({}); --no-plan forces guiding",
+                plan.reasons.join("; ")
+            ),
+        });
     }
-    eprintln!("{}", ltcguide::render::run_plan(&scene, &opts).line());
+    ltcguide::film::ensure_writable(&args.out)?;
+    if let Some(path) = &args.stats_json {
+        ltcguide::film::ensure_writable(path)?;
+    }
+    eprintln!("{}", plan.line());
     let result = render(&scene, &opts)?;
     write_rgb(
         &args.out,
@@ -421,7 +434,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     );
     if args.aov.contains(&Aov::Alpha) {
         let Some(tree) = &result.tree else {
-            return Err("--aov alpha needs a guided method (--method radiance or product)".into());
+            return Err(ALPHA_NEEDS_GUIDING.into());
         };
         ltcguide::guiding::aov::write_alpha_aov(&scene, tree, &args.out)?;
     }

@@ -13,6 +13,27 @@ pub fn temp_path_for(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
 }
 
+/// Fails before any work is spent on an output that could not be written:
+/// creates the path's directory and, as the final atomic write will, a
+/// temporary file beside it (removed again at once). A render that ran for
+/// an hour must not end on a path it could have refused at the start.
+pub fn ensure_writable(path: &Path) -> Result<(), String> {
+    if path.is_dir() {
+        return Err(format!(
+            "cannot write '{}': it is a directory",
+            path.display()
+        ));
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create '{}': {e}", dir.display()))?;
+    }
+    let tmp = temp_path_for(path);
+    std::fs::File::create(&tmp).map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
+    let _ = std::fs::remove_file(&tmp);
+    Ok(())
+}
+
 /// Renames a finished temporary file over its destination.
 pub fn commit_temp(tmp: &Path, path: &Path) -> Result<(), String> {
     std::fs::rename(tmp, path).map_err(|e| {

@@ -1,0 +1,134 @@
+//! `render` refuses what it could not finish before it renders: an output
+//! path it cannot write, or an AOV the run will not have. Each case checks
+//! the exit code, the one error line, and that no image was written (the
+//! render did not run).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn work_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ltcguide-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn default_scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/stiff/scene.xml")
+}
+
+/// A mirror sphere under an area light: no vertex a guide could sample.
+const DELTA_ONLY: &str = r#"<scene version="3.0.0">
+	<sensor type="perspective">
+		<float name="fov" value="45"/>
+		<transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+		<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+	</sensor>
+	<shape type="sphere"><bsdf type="conductor"/></shape>
+	<shape type="rectangle">
+		<transform name="to_world"><matrix value="1 0 0 0  0 -1 0 0  0 0 -1 3  0 0 0 1"/></transform>
+		<bsdf type="conductor"/>
+		<emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
+	</shape>
+</scene>
+"#;
+
+/// Runs `render SCENE --spp 1 ARGS` and returns (exit code, stderr).
+fn render(scene: &Path, args: &[&str]) -> (Option<i32>, String) {
+    let run = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .arg("render")
+        .arg(scene)
+        .args(["--spp", "1", "--threads", "1"])
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        run.status.code(),
+        String::from_utf8_lossy(&run.stderr).into_owned(),
+    )
+}
+
+/// Exit 2 with one error line containing `expect`, and no render: its
+/// summary line ("… spp in … s") never printed, no file in `dir` but
+/// `keep`.
+fn assert_refused(code: Option<i32>, stderr: &str, expect: &str, dir: &Path, keep: &[&str]) {
+    assert_eq!(code, Some(2), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains(expect), "{stderr}");
+    assert!(
+        !stderr.contains(" spp in "),
+        "rendered before refusing: {stderr}"
+    );
+    let left: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !keep.contains(&n.as_str()))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+#[test]
+fn unwritable_outputs_are_refused_before_the_render() {
+    let dir = work_dir("unwritable");
+    std::fs::write(dir.join("file"), b"").unwrap();
+    std::fs::create_dir(dir.join("dir.exr")).unwrap();
+    let keep = ["file", "dir.exr"];
+    let out = dir.join("o.exr");
+    let out = out.to_str().unwrap();
+    // The image's directory cannot be created (its parent is a file).
+    let bad_dir = dir.join("file/o.exr");
+    let (code, err) = render(&default_scene(), &["--out", bad_dir.to_str().unwrap()]);
+    assert_refused(code, &err, "cannot create", &dir, &keep);
+    // The image path is a directory.
+    let as_dir = dir.join("dir.exr");
+    let (code, err) = render(&default_scene(), &["--out", as_dir.to_str().unwrap()]);
+    assert_refused(code, &err, "is a directory", &dir, &keep);
+    // The statistics cannot be written: before, the image was written and
+    // the run still failed at its end.
+    let stats = dir.join("file/s.json");
+    let args = ["--out", out, "--stats-json", stats.to_str().unwrap()];
+    let (code, err) = render(&default_scene(), &args);
+    assert_refused(code, &err, "cannot create", &dir, &keep);
+    // A writable one in a directory still to be made is made and written.
+    let stats = dir.join("new/s.json");
+    let (code, err) = render(
+        &default_scene(),
+        &["--out", out, "--stats-json", stats.to_str().unwrap()],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let json = std::fs::read_to_string(&stats).unwrap();
+    assert!(json.contains("\"paths_per_second\""), "{json}");
+    assert!(dir.join("o.exr").is_file() && dir.join("o.png").is_file());
+    // No temporary file is left behind by the checks.
+    let stray: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .chain(std::fs::read_dir(dir.join("new")).unwrap())
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp"))
+        .collect();
+    assert!(stray.is_empty(), "{stray:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_alpha_aov_without_guiding_is_refused_before_the_render() {
+    let dir = work_dir("aov");
+    let out = dir.join("o.exr");
+    let out = out.to_str().unwrap();
+    // Path tracing learns no α.
+    let (code, err) = render(&default_scene(), &["--out", out, "--aov", "alpha"]);
+    assert_refused(code, &err, "needs a guided method", &dir, &[]);
+    // A guided method whose plan drops guiding (only delta materials).
+    let scene = dir.join("delta.xml");
+    std::fs::write(&scene, DELTA_ONLY).unwrap();
+    let args = ["--out", out, "--aov", "alpha", "--method", "radiance"];
+    let (code, err) = render(&scene, &args);
+    assert_refused(code, &err, "only delta materials", &dir, &["delta.xml"]);
+    // With guiding the AOV is written next to the image.
+    let args = ["--out", out, "--aov", "alpha", "--method", "radiance"];
+    let (code, err) = render(&default_scene(), &args);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(dir.join("o-alpha.exr").is_file(), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
