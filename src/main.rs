@@ -315,7 +315,7 @@ const ALPHA_NEEDS_GUIDING: &str =
     "--aov alpha needs a guided method (--method radiance or product)";
 
 fn cmd_render(args: &RenderArgs) -> Result<(), String> {
-    let scene = load(&args.scene)?;
+    // The arguments first: a bad one fails before a scene is loaded.
     let budget = match (args.spp, args.time) {
         (Some(0), _) => return Err("--spp must be at least 1".into()),
         (Some(n), _) => Budget::Spp(n),
@@ -325,11 +325,41 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         (None, Some(t)) => Budget::Seconds(t),
         (None, None) => Budget::Spp(64),
     };
+    if let Some(d) = args.max_depth
+        && d != -1
+        && d < 1
+    {
+        return Err(format!("--max-depth must be -1 or at least 1, got {d}"));
+    }
+    if let Some(c) = args.spatial_threshold
+        && !(c > 0.0 && c.is_finite())
+    {
+        return Err(format!(
+            "--spatial-threshold must be a positive number, got {c}"
+        ));
+    }
+    check_adrrs_window(args.adrrs_window)?;
+    if let Some(a) = args.bsdf_fraction {
+        if !(0.0..=1.0).contains(&a) {
+            return Err(format!("--bsdf-fraction must be in [0, 1], got {a}"));
+        }
+        if a == 0.0 {
+            eprintln!(
+                "warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples"
+            );
+        }
+    }
+    if args.out.extension().and_then(|e| e.to_str()) != Some("exr") {
+        return Err(format!(
+            "--out must name an .exr file, got '{}'",
+            args.out.display()
+        ));
+    }
+    let scene = load(&args.scene)?;
     let max_depth = match args.max_depth {
         None => scene.max_depth.or(Some(10)),
         Some(-1) => None,
-        Some(d) if d >= 1 => Some(d as u32),
-        Some(d) => return Err(format!("--max-depth must be -1 or at least 1, got {d}")),
+        Some(d) => Some(d as u32),
     };
     let nee = if args.no_nee {
         false
@@ -357,30 +387,6 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
     };
-    if let Some(c) = args.spatial_threshold
-        && !(c > 0.0 && c.is_finite())
-    {
-        return Err(format!(
-            "--spatial-threshold must be a positive number, got {c}"
-        ));
-    }
-    check_adrrs_window(args.adrrs_window)?;
-    if let Some(a) = args.bsdf_fraction {
-        if !(0.0..=1.0).contains(&a) {
-            return Err(format!("--bsdf-fraction must be in [0, 1], got {a}"));
-        }
-        if a == 0.0 {
-            eprintln!(
-                "warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples"
-            );
-        }
-    }
-    if args.out.extension().and_then(|e| e.to_str()) != Some("exr") {
-        return Err(format!(
-            "--out must name an .exr file, got '{}'",
-            args.out.display()
-        ));
-    }
     let plan = ltcguide::render::run_plan(&scene, &opts);
     if args.aov.contains(&Aov::Alpha) && !plan.guiding {
         return Err(match args.method {

@@ -132,3 +132,30 @@ fn an_alpha_aov_without_guiding_is_refused_before_the_render() {
     assert!(dir.join("o-alpha.exr").is_file(), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Argument errors come before the scene is read: a long load (the pack's
+/// largest scenes take seconds) is not spent on a run that cannot start.
+/// The scene path does not exist, so any error but the argument's own
+/// means the scene was read first.
+#[test]
+fn bad_arguments_are_refused_before_the_scene_is_read() {
+    let dir = work_dir("args");
+    let missing = dir.join("no-such-scene.xml");
+    let out = dir.join("o.exr");
+    let out = out.to_str().unwrap();
+    for (args, expect) in [
+        (&["--bsdf-fraction", "2"][..], "--bsdf-fraction"),
+        (&["--max-depth", "0"], "--max-depth"),
+        (&["--spatial-threshold", "0"], "--spatial-threshold"),
+        (&["--adrrs-window", "0.5"], "--adrrs-window"),
+    ] {
+        let (code, err) = render(&missing, &[&["--out", out][..], args].concat());
+        assert_refused(code, &err, expect, &dir, &[]);
+    }
+    let (code, err) = render(&missing, &["--out", dir.join("o.png").to_str().unwrap()]);
+    assert_refused(code, &err, "--out must name an .exr file", &dir, &[]);
+    // A good set of arguments reaches the scene, which is then missing.
+    let (code, err) = render(&missing, &["--out", out]);
+    assert_refused(code, &err, "no-such-scene.xml", &dir, &[]);
+    std::fs::remove_dir_all(&dir).ok();
+}
