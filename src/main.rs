@@ -338,7 +338,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             "--spatial-threshold must be a positive number, got {c}"
         ));
     }
-    check_adrrs_window(args.adrrs_window)?;
+    ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     if let Some(a) = args.bsdf_fraction {
         if !(0.0..=1.0).contains(&a) {
             return Err(format!("--bsdf-fraction must be in [0, 1], got {a}"));
@@ -471,24 +471,12 @@ fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
     }
 }
 
-/// ADRRS's window ratio s must be a finite number ≥ 1 (the upper bound is
-/// s times the lower); otherwise every roulette would be skipped as invalid.
-fn check_adrrs_window(s: f32) -> Result<(), String> {
-    if s >= 1.0 && s.is_finite() {
-        Ok(())
-    } else {
-        Err(format!(
-            "--adrrs-window must be a finite number of at least 1, got {s}"
-        ))
-    }
-}
-
 fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     // The arguments first: a bad one fails before a scene is loaded.
     if !(args.time > 0.0 && args.time.is_finite()) {
         return Err("--time must be a positive number of seconds".into());
     }
-    check_adrrs_window(args.adrrs_window)?;
+    ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     let scene = load(&args.scene)?;
     let reference = read_image(&args.reference)?;
     let opts = ltcguide::experiment::compare::CompareOptions {

@@ -25,6 +25,18 @@ pub struct Adrrs {
 /// Vorba & Křivánek's window ratio s, which DESIGN §5 prescribes.
 pub const PAPER_WINDOW: f32 = 5.0;
 
+/// ADRRS's window ratio s must be a finite number ≥ 1 (the upper bound is
+/// s times the lower); otherwise every roulette would be skipped as invalid.
+pub fn check_window(s: f32) -> Result<(), String> {
+    if s >= 1.0 && s.is_finite() {
+        Ok(())
+    } else {
+        Err(format!(
+            "--adrrs-window must be a finite number of at least 1, got {s}"
+        ))
+    }
+}
+
 impl Default for Adrrs {
     fn default() -> Self {
         Adrrs { s: PAPER_WINDOW }
