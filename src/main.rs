@@ -355,6 +355,10 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             args.out.display()
         ));
     }
+    let alpha_aov = args.aov.contains(&Aov::Alpha);
+    if alpha_aov && args.method == Method::Pt {
+        return Err(ALPHA_NEEDS_GUIDING.into());
+    }
     let scene = load(&args.scene)?;
     let max_depth = match args.max_depth {
         None => scene.max_depth.or(Some(10)),
@@ -388,14 +392,11 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         spatial_threshold: args.spatial_threshold,
     };
     let plan = ltcguide::render::run_plan(&scene, &opts);
-    if args.aov.contains(&Aov::Alpha) && !plan.guiding {
-        return Err(match args.method {
-            Method::Pt => ALPHA_NEEDS_GUIDING.into(),
-            _ => format!(
-                "--aov alpha: this run learns no BSDF fraction ({}); --no-plan forces guiding",
-                plan.reasons.join("; ")
-            ),
-        });
+    if alpha_aov && !plan.guiding {
+        return Err(format!(
+            "--aov alpha: this run learns no BSDF fraction ({}); --no-plan forces guiding",
+            plan.reasons.join("; ")
+        ));
     }
     ltcguide::film::ensure_writable(&args.out)?;
     if let Some(path) = &args.stats_json {
@@ -438,7 +439,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         args.out.display(),
         png.display()
     );
-    if args.aov.contains(&Aov::Alpha) {
+    if alpha_aov {
         let Some(tree) = &result.tree else {
             return Err(ALPHA_NEEDS_GUIDING.into());
         };

@@ -152,6 +152,8 @@ fn bad_arguments_are_refused_before_the_scene_is_read() {
         let (code, err) = render(&missing, &[&["--out", out][..], args].concat());
         assert_refused(code, &err, expect, &dir, &[]);
     }
+    let (code, err) = render(&missing, &["--out", out, "--aov", "alpha"]);
+    assert_refused(code, &err, "needs a guided method", &dir, &[]);
     let (code, err) = render(&missing, &["--out", dir.join("o.png").to_str().unwrap()]);
     assert_refused(code, &err, "--out must name an .exr file", &dir, &[]);
     // A good set of arguments reaches the scene, which is then missing.
