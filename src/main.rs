@@ -447,10 +447,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     }
     if let Some(path) = &args.stats_json {
         let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
-        let tmp = ltcguide::film::temp_path_for(path);
-        std::fs::write(&tmp, json)
-            .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
-        ltcguide::film::commit_temp(&tmp, path)?;
+        ltcguide::film::write_atomic(path, json.as_bytes())?;
     }
     Ok(())
 }

@@ -10,6 +10,7 @@ use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
 use crate::film::metrics::{mae, relmse};
 use crate::film::png_io::{write_png, write_png_rgb8};
+use crate::film::write_atomic;
 use crate::guiding::product::CosineLobes;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::render::{
@@ -240,12 +241,6 @@ fn total_threads(opts: &CompareOptions) -> usize {
 /// Side by side, each method gets an equal share of the threads.
 fn side_by_side_threads(opts: &CompareOptions) -> usize {
     side_by_side_share(opts.threads, opts.methods.len())
-}
-
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    let tmp = crate::film::temp_path_for(path);
-    std::fs::write(&tmp, bytes).map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
-    crate::film::commit_temp(&tmp, path)
 }
 
 fn write_final_images(

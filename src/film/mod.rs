@@ -34,6 +34,14 @@ pub fn ensure_writable(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Writes `bytes` to `path` through a temporary file beside it, so that a
+/// failed write never leaves a truncated file in its place.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    let tmp = temp_path_for(path);
+    std::fs::write(&tmp, bytes).map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
+    commit_temp(&tmp, path)
+}
+
 /// Renames a finished temporary file over its destination.
 pub fn commit_temp(tmp: &Path, path: &Path) -> Result<(), String> {
     std::fs::rename(tmp, path).map_err(|e| {
