@@ -169,6 +169,9 @@ pub struct RenderResult {
     pub image: Image,
     /// Per-pixel variance of the estimate (of the mean), channel average.
     pub variance: Vec<f32>,
+    /// Guided methods: the last iteration's per-pixel single-sample
+    /// variance (see [`crate::guiding::train::GuidedOutput`]).
+    pub last_iteration_variance: Vec<f32>,
     pub stats: RenderStats,
     pub snapshots: Vec<Snapshot>,
     /// The learned guide of a guided method.
@@ -237,7 +240,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         Budget::Seconds(s) => ((s * 1000.0) as u64, format!("{:?} ms", opts.method)),
     };
     let bar = progress_bar(opts.progress, len, &what.to_lowercase());
-    let (image, variance, spp, counters, guiding, tree) =
+    let (image, variance, spp, counters, guiding, tree, last_iteration_variance) =
         pool.install(|| -> Result<_, String> {
             let guided = |out: crate::guiding::train::GuidedOutput| {
                 (
@@ -247,6 +250,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                     out.counters,
                     Some(out.stats),
                     Some(out.tree),
+                    out.last_iteration_variance,
                 )
             };
             // A product run where every vertex would take radiance weights
@@ -266,6 +270,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                         counters,
                         None,
                         None,
+                        Vec::new(),
                     )
                 }
                 Method::Radiance => guided(render_guided(
@@ -348,6 +353,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     Ok(RenderResult {
         image,
         variance,
+        last_iteration_variance,
         stats,
         snapshots: snapshots.taken,
         tree,

@@ -365,7 +365,8 @@ fn ablation_reports_every_kernel_and_plan_row() {
 /// finite positive ratio.
 #[test]
 fn attribution_pairs_differ_only_in_the_method() {
-    use ltcguide::experiment::attribution::{AttributionOptions, run_attribution};
+    use ltcguide::experiment::attribution::{AttributionOptions, ClassSplit, run_attribution};
+    use ltcguide::experiment::pixel_classes::PixelClass;
     let options = |scene: &Scene, exact_integrals| AttributionOptions {
         spp: 8,
         seeds: 2,
@@ -378,7 +379,7 @@ fn attribution_pairs_differ_only_in_the_method() {
     };
     let diffuse = tiny();
     let out = run_attribution(&diffuse, &options(&diffuse, true)).unwrap();
-    assert_eq!(out.factors.len(), 8, "{}", out.markdown);
+    assert_eq!(out.factors.len(), 9, "{}", out.markdown);
     for f in &out.factors {
         assert_eq!(f.per_seed.len(), 2);
         if f.name.contains("variance") || f.name.starts_with("expected relMSE") {
@@ -386,6 +387,19 @@ fn attribution_pairs_differ_only_in_the_method() {
                 assert!((v - 1.0).abs() < 1e-4, "{}: {v}\n{}", f.name, out.markdown);
             }
         }
+    }
+    // The split by first vertex: no glossy pixels, ratios 1 where radiance
+    // guiding has variance, and pixels and shares that add up.
+    assert!(out.by_class.iter().all(|c| c.class != PixelClass::Glossy));
+    let total = |f: fn(&ClassSplit) -> f64| out.by_class.iter().map(f).sum::<f64>();
+    assert!((total(|c| c.pixels) - 1.0).abs() < 1e-9);
+    assert!((total(|c| c.radiance_share) - 1.0).abs() < 1e-9);
+    for c in out.by_class.iter().filter(|c| c.radiance_share > 0.0) {
+        assert!(
+            c.per_seed.iter().all(|v| (v - 1.0).abs() < 1e-4),
+            "{}",
+            out.markdown
+        );
     }
     // Different seeds give different renders: the ratios are not trivially 1.
     let seeds_differ =
@@ -405,22 +419,37 @@ fn attribution_pairs_differ_only_in_the_method() {
     let glossy =
         ltcguide::scene::load_scene_from_str(&glossy_xml, Path::new("glossy.xml")).unwrap();
     let out = run_attribution(&glossy, &options(&glossy, false)).unwrap();
-    assert_eq!(out.factors.len(), 7, "{}", out.markdown);
+    assert_eq!(out.factors.len(), 8, "{}", out.markdown);
     assert!(
         out.factors
             .iter()
             .all(|f| f.mean() > 0.0 && f.mean().is_finite())
     );
-    let per_sample = &out.factors[2];
-    assert!(
-        per_sample.per_seed.iter().all(|v| (v - 1.0).abs() > 1e-3),
-        "the product changed nothing on a glossy floor\n{}",
-        out.markdown
-    );
+    for per_sample in &out.factors[2..4] {
+        assert!(
+            per_sample.per_seed.iter().all(|v| (v - 1.0).abs() > 1e-3),
+            "{}: the product changed nothing on a glossy floor\n{}",
+            per_sample.name,
+            out.markdown
+        );
+    }
     assert!(
         out.markdown
             .contains("At zero overhead the product would reach")
     );
+    // The floor is glossy: the product's own distribution acts there.
+    let floor = out
+        .by_class
+        .iter()
+        .find(|c| c.class == PixelClass::Glossy)
+        .expect("the glossy floor's pixels are classed glossy");
+    assert!(floor.pixels > 0.1 && floor.radiance_share > 0.0);
+    assert!(
+        floor.per_seed.iter().all(|v| (v - 1.0).abs() > 1e-3),
+        "{}",
+        out.markdown
+    );
+    assert!(out.markdown.contains("| glossy GGX lobe (α ≤ 0.5) |"));
 }
 
 #[test]

@@ -14,6 +14,9 @@
 //! needed:
 //! - *variance per sample* is the final iteration's mean over pixels of the
 //!   single-sample variance (what one more sample costs in variance);
+//! - *relative variance per sample* is the same, each pixel's variance
+//!   over (R² + 0.01) as below: the gain per sample where relMSE weighs it,
+//!   the dark pixels as much as the bright ones;
 //! - *expected relMSE* is the mean over pixels of the combined image's
 //!   variance over (R² + 0.01), the normaliser of DESIGN §6's relMSE, with
 //!   R the mean of the pair's two images (one normaliser for both, so that
@@ -27,6 +30,7 @@
 //! relMSE) make every variance from a few samples an underestimate of the
 //! tail: read the per-seed columns before the mean.
 
+use super::pixel_classes::{PixelClass, class_counts, class_sums, classify};
 use crate::film::image::Image;
 use crate::film::metrics::RELMSE_EPSILON;
 use crate::guiding::aov::alpha_aov;
@@ -121,17 +125,37 @@ pub struct Factor {
 impl Factor {
     /// Geometric mean over the seeds (the factors are ratios).
     pub fn mean(&self) -> f64 {
-        let logs: Vec<f64> = self.per_seed.iter().map(|x| x.ln()).collect();
-        (logs.iter().sum::<f64>() / logs.len().max(1) as f64).exp()
+        geometric_mean(&self.per_seed)
     }
 }
 
+fn geometric_mean(values: &[f64]) -> f64 {
+    let logs = values.iter().map(|x| x.ln()).sum::<f64>();
+    (logs / values.len().max(1) as f64).exp()
+}
+
 /// Rows of [`AttributionOutcome::factors`] the summary line reads.
-pub const EXPECTED_RELMSE: usize = 3;
-pub const EQUAL_TIME: usize = 4;
+pub const EXPECTED_RELMSE: usize = 4;
+pub const EQUAL_TIME: usize = 5;
+
+/// The relative variance per sample of the final iteration, split by
+/// what the product does at the pixels' first vertex.
+#[derive(Clone, Debug)]
+pub struct ClassSplit {
+    pub class: PixelClass,
+    /// Fraction of the image's pixels.
+    pub pixels: f64,
+    /// Fraction of radiance guiding's relative variance in these pixels,
+    /// mean over the seeds.
+    pub radiance_share: f64,
+    /// Product / radiance within the class, per seed (NaN where radiance
+    /// guiding has none there).
+    pub per_seed: Vec<f64>,
+}
 
 pub struct AttributionOutcome {
     pub factors: Vec<Factor>,
+    pub by_class: Vec<ClassSplit>,
     /// Mean learned BSDF fraction at the first vertex, (product, radiance),
     /// per seed.
     pub alpha: Vec<(f64, f64)>,
@@ -143,6 +167,8 @@ struct Figures {
     seconds: f64,
     final_seconds_per_spp: f64,
     final_variance: f64,
+    /// The final iteration's per-pixel single-sample variance.
+    final_pixel_variance: Vec<f32>,
     image: Image,
     variance: Vec<f32>,
     tree: Option<SdTree>,
@@ -175,28 +201,54 @@ fn figures(r: RenderResult) -> Result<Figures, String> {
         seconds: r.stats.seconds,
         final_seconds_per_spp: last.seconds / last.spp.max(1) as f64,
         final_variance: last.mean_variance,
+        final_pixel_variance: r.last_iteration_variance,
         image: r.image,
         variance: r.variance,
         tree: r.tree,
     })
 }
 
+/// Per pixel, 1/(R² + 0.01) with R the mean of the pair's two images (one
+/// normaliser for both, so that neither image's noise enters its own
+/// scale), channel average.
+fn pair_normalisers(a: &Figures, b: &Figures) -> Vec<f64> {
+    a.image
+        .pixels
+        .iter()
+        .zip(&b.image.pixels)
+        .map(|(pa, pb)| {
+            let r = ((*pa + *pb) * 0.5).to_array().map(|c| c as f64);
+            r.iter()
+                .map(|c| 1.0 / (c * c + RELMSE_EPSILON))
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect()
+}
+
+/// Means over pixels of two per-pixel variances, each times the pair's
+/// normaliser. `None` when a variance does not cover the image.
+fn relative_means(a: &Figures, b: &Figures, va: &[f32], vb: &[f32]) -> Option<(f64, f64)> {
+    let norm = pair_normalisers(a, b);
+    let n = norm.len();
+    if va.len() != n || vb.len() != n || b.image.pixels.len() != n || n == 0 {
+        return None;
+    }
+    let sum = |v: &[f32]| v.iter().zip(&norm).map(|(&v, w)| v as f64 * w).sum::<f64>();
+    Some((sum(va) / n as f64, sum(vb) / n as f64))
+}
+
 /// Expected relMSE of each image of a pair, both normalised by the pair's
 /// mean image.
 fn expected_relmse(a: &Figures, b: &Figures) -> (f64, f64) {
-    let mut sums = (0.0f64, 0.0f64);
-    for (i, (pa, pb)) in a.image.pixels.iter().zip(&b.image.pixels).enumerate() {
-        let r = ((*pa + *pb) * 0.5).to_array().map(|c| c as f64);
-        let norm = r
-            .iter()
-            .map(|c| 1.0 / (c * c + RELMSE_EPSILON))
-            .sum::<f64>()
-            / 3.0;
-        sums.0 += a.variance[i] as f64 * norm;
-        sums.1 += b.variance[i] as f64 * norm;
-    }
-    let n = a.image.pixels.len().max(1) as f64;
-    (sums.0 / n, sums.1 / n)
+    relative_means(a, b, &a.variance, &b.variance).unwrap_or((f64::NAN, f64::NAN))
+}
+
+/// Relative variance per sample of each final iteration of a pair, with
+/// the normaliser of [`expected_relmse`].
+fn relative_final_variance(a: &Figures, b: &Figures) -> (f64, f64) {
+    relative_means(a, b, &a.final_pixel_variance, &b.final_pixel_variance)
+        .unwrap_or((f64::NAN, f64::NAN))
 }
 
 /// Renders `a` and `b` side by side.
@@ -268,6 +320,10 @@ pub fn run_attribution(
             "the product's gain per sample, learned α",
         ),
         (
+            "relative variance per sample, final iteration",
+            "the same gain, each pixel over (R² + 0.01) as relMSE weighs it",
+        ),
+        (
             "expected relMSE of the image",
             "the gain at equal spp, training included",
         ),
@@ -303,6 +359,9 @@ pub fn run_attribution(
         per_seed: Vec::new(),
     };
     let mut alpha = Vec::new();
+    let classes = classify(scene);
+    let counts = class_counts(&classes);
+    let mut class_seeds: Vec<([f64; 3], [f64; 3])> = Vec::new();
     let say = |what: &str, seed: u64| {
         if opts.progress {
             eprintln!("attribute: {what}, seed {seed}, {} spp", opts.spp);
@@ -316,10 +375,18 @@ pub fn run_attribution(
             base(Method::Radiance, seed),
         )?;
         let (ep, er) = expected_relmse(&p, &r);
+        let (fp, fr) = relative_final_variance(&p, &r);
+        let norm = pair_normalisers(&p, &r);
+        let by_class = |f: &Figures| {
+            let v = f.final_pixel_variance.iter().zip(&norm);
+            class_sums(&classes, v.map(|(&v, w)| v as f64 * w))
+        };
+        class_seeds.push((by_class(&p), by_class(&r)));
         let values = [
             p.final_seconds_per_spp / r.final_seconds_per_spp,
             p.seconds / r.seconds,
             p.final_variance / r.final_variance,
+            fp / fr,
             ep / er,
             (ep * p.seconds) / (er * r.seconds),
         ];
@@ -375,9 +442,30 @@ pub fn run_attribution(
             ));
         }
     }
-    let markdown = markdown(scene, opts, side, &rows, &alpha);
+    let n = classes.len().max(1) as f64;
+    let by_class: Vec<ClassSplit> = PixelClass::ALL
+        .iter()
+        .enumerate()
+        .filter(|&(c, _)| counts[c] > 0)
+        .map(|(c, &class)| ClassSplit {
+            class,
+            pixels: counts[c] as f64 / n,
+            radiance_share: class_seeds
+                .iter()
+                .map(|(_, r)| r[c] / r.iter().sum::<f64>())
+                .sum::<f64>()
+                / class_seeds.len().max(1) as f64,
+            per_seed: class_seeds
+                .iter()
+                .map(|(p, r)| if r[c] > 0.0 { p[c] / r[c] } else { f64::NAN })
+                .collect(),
+        })
+        .collect();
+    let mut markdown = markdown(scene, opts, side, &rows, &alpha);
+    markdown.push_str(&class_markdown(&by_class));
     Ok(AttributionOutcome {
         factors: rows,
+        by_class,
         alpha,
         markdown,
     })
@@ -430,6 +518,46 @@ fn markdown(
         rows[EXPECTED_RELMSE].mean(),
         rows[EQUAL_TIME].mean()
     );
+    md
+}
+
+/// The split of the final iteration's relative variance by the pixels'
+/// first vertex.
+fn class_markdown(split: &[ClassSplit]) -> String {
+    let mut md = String::from(
+        "\nThe final iteration's relative variance per sample by the first non-delta vertex \
+         seen through each pixel's centre, product / radiance per seed (the product acts \
+         first only at glossy vertices; cosine-only ones take radiance weights):\n\n",
+    );
+    let seeds = split.first().map_or(0, |s| s.per_seed.len());
+    let head: String = (1..=seeds).map(|s| format!(" seed {s} |")).collect();
+    let rule: String = (0..seeds).map(|_| "---|").collect();
+    let _ = writeln!(
+        md,
+        "| first vertex | pixels | radiance's relative variance there |{head} mean |"
+    );
+    let _ = writeln!(md, "|---|---|---|{rule}---|");
+    for c in split {
+        let values: String = c.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
+        let finite: Vec<f64> = c
+            .per_seed
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        let mean = if finite.is_empty() {
+            "–".to_string()
+        } else {
+            format!("{:.3}", geometric_mean(&finite))
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {:.1} % | {:.1} % |{values} {mean} |",
+            c.class.label(),
+            100.0 * c.pixels,
+            100.0 * c.radiance_share
+        );
+    }
     md
 }
 

@@ -6,4 +6,5 @@ pub mod attribution;
 pub mod colormap;
 pub mod compare;
 pub mod curves;
+pub mod pixel_classes;
 pub mod plot;

@@ -73,6 +73,10 @@ pub struct GuidingStats {
 pub struct GuidedOutput {
     pub image: Image,
     pub variance: Vec<f32>,
+    /// Per-pixel single-sample variance of the last iteration about its
+    /// own mean (channel average, corrected by n/(n − 1)); empty below 4
+    /// spp, where it says little.
+    pub last_iteration_variance: Vec<f32>,
     pub spp: u32,
     pub counters: RenderCounters,
     pub stats: GuidingStats,
@@ -497,9 +501,20 @@ pub fn render_guided<M: WeightModel>(
         left_out_spp,
         weights_check,
     };
+    let last_iteration_variance = match films.last() {
+        Some(f) if f.spp >= 4 => {
+            let n = f.spp as f32;
+            sample_variance_about(f, &f.mean())
+                .into_iter()
+                .map(|v| v * n / (n - 1.0))
+                .collect()
+        }
+        _ => Vec::new(),
+    };
     GuidedOutput {
         image,
         variance,
+        last_iteration_variance,
         spp: refs.iter().map(|f| f.spp).sum(),
         counters,
         stats,
