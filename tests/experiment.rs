@@ -390,7 +390,11 @@ fn attribution_pairs_differ_only_in_the_method() {
     }
     // The split by first vertex: no glossy pixels, ratios 1 where radiance
     // guiding has variance, and pixels and shares that add up.
-    assert!(out.by_class.iter().all(|c| c.class != PixelClass::Glossy));
+    assert!(
+        out.by_class
+            .iter()
+            .all(|c| !matches!(c.class, PixelClass::Glossy | PixelClass::GlossyCoat))
+    );
     let total = |f: fn(&ClassSplit) -> f64| out.by_class.iter().map(f).sum::<f64>();
     assert!((total(|c| c.pixels) - 1.0).abs() < 1e-9);
     assert!((total(|c| c.radiance_share) - 1.0).abs() < 1e-9);
@@ -449,7 +453,53 @@ fn attribution_pairs_differ_only_in_the_method() {
         "{}",
         out.markdown
     );
-    assert!(out.markdown.contains("| glossy GGX lobe (α ≤ 0.5) |"));
+    assert!(
+        out.markdown
+            .contains("| glossy GGX lobe (α ≤ 0.5), most of the weight |")
+    );
+}
+
+/// Pixels are classed by the floor's material as the product treats it:
+/// a sharp conductor is glossy, a plastic's coat over its base is a coat,
+/// and GGX rougher than 0.5 is a cosine lobe; the light's own pixels
+/// (a black diffuse sphere) are cosine too, and nothing misses.
+#[test]
+fn pixel_classes_follow_the_product_treatment_of_the_material() {
+    use ltcguide::experiment::pixel_classes::{PixelClass, class_counts, classify};
+    let xml = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/analytic/sphere_over_plane.xml"),
+    )
+    .unwrap();
+    let floor = r#"<bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf>"#;
+    let cases = [
+        (floor, PixelClass::Cosine),
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="0.1"/></bsdf>"#,
+            PixelClass::Glossy,
+        ),
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="0.8"/></bsdf>"#,
+            PixelClass::Cosine,
+        ),
+        (
+            r#"<bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf>"#,
+            PixelClass::GlossyCoat,
+        ),
+    ];
+    for (bsdf, want) in cases {
+        let scene = ltcguide::scene::load_scene_from_str(
+            &xml.replacen(floor, bsdf, 1),
+            Path::new("classes.xml"),
+        )
+        .unwrap();
+        let classes = classify(&scene);
+        assert_eq!(classes.len(), 64 * 64);
+        let counts = class_counts(&classes);
+        let i = PixelClass::ALL.iter().position(|&c| c == want).unwrap();
+        // The floor fills the view but for the sphere's few pixels.
+        assert!(counts[i] > 64 * 64 * 9 / 10, "{bsdf}: {counts:?}");
+        assert_eq!(counts[3], 0, "{bsdf}: {counts:?}");
+    }
 }
 
 #[test]

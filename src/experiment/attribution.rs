@@ -361,7 +361,7 @@ pub fn run_attribution(
     let mut alpha = Vec::new();
     let classes = classify(scene);
     let counts = class_counts(&classes);
-    let mut class_seeds: Vec<([f64; 3], [f64; 3])> = Vec::new();
+    let mut class_seeds: Vec<([f64; 4], [f64; 4])> = Vec::new();
     let say = |what: &str, seed: u64| {
         if opts.progress {
             eprintln!("attribute: {what}, seed {seed}, {} spp", opts.spp);

@@ -14,8 +14,12 @@ use crate::scene::Scene;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PixelClass {
-    /// A GGX lobe the product integrates as such (α ≤ 0.5, weight > 0).
+    /// GGX lobes the product integrates as such (α ≤ 0.5) carry at least
+    /// half the lobes' weight (rough conductors).
     Glossy,
+    /// Such a lobe is there but carries less than the cosine lobes (a
+    /// plastic's coat over its diffuse base).
+    GlossyCoat,
     /// Only cosine lobes: the product takes radiance weights here.
     Cosine,
     /// The camera ray leaves the scene or meets only delta surfaces.
@@ -23,11 +27,17 @@ pub enum PixelClass {
 }
 
 impl PixelClass {
-    pub const ALL: [PixelClass; 3] = [PixelClass::Glossy, PixelClass::Cosine, PixelClass::NoVertex];
+    pub const ALL: [PixelClass; 4] = [
+        PixelClass::Glossy,
+        PixelClass::GlossyCoat,
+        PixelClass::Cosine,
+        PixelClass::NoVertex,
+    ];
 
     pub fn label(self) -> &'static str {
         match self {
-            PixelClass::Glossy => "glossy GGX lobe (α ≤ 0.5)",
+            PixelClass::Glossy => "glossy GGX lobe (α ≤ 0.5), most of the weight",
+            PixelClass::GlossyCoat => "glossy coat (α ≤ 0.5) over cosine lobes",
             PixelClass::Cosine => "cosine lobes only",
             PixelClass::NoVertex => "no non-delta vertex",
         }
@@ -47,13 +57,20 @@ pub fn classify(scene: &Scene) -> Vec<PixelClass> {
             None => PixelClass::NoVertex,
             Some(v) => {
                 let lobes = v.bsdf.lobes(v.wo_local);
-                let glossy = lobes.ggx[..lobes.ggx_count]
-                    .iter()
-                    .any(|g| g.weight > 0.0 && !opts.integrates_as_cosine(g.alpha));
-                if glossy {
+                let (mut glossy, mut cosine) = (0.0, lobes.diffuse);
+                for g in &lobes.ggx[..lobes.ggx_count] {
+                    if opts.integrates_as_cosine(g.alpha) {
+                        cosine += g.weight;
+                    } else {
+                        glossy += g.weight;
+                    }
+                }
+                if !(glossy > 0.0) {
+                    PixelClass::Cosine
+                } else if glossy >= cosine {
                     PixelClass::Glossy
                 } else {
-                    PixelClass::Cosine
+                    PixelClass::GlossyCoat
                 }
             }
         })
@@ -61,8 +78,8 @@ pub fn classify(scene: &Scene) -> Vec<PixelClass> {
 }
 
 /// Per-class sums of a per-pixel quantity, in [`PixelClass::ALL`]'s order.
-pub fn class_sums(classes: &[PixelClass], values: impl Iterator<Item = f64>) -> [f64; 3] {
-    let mut sums = [0.0; 3];
+pub fn class_sums(classes: &[PixelClass], values: impl Iterator<Item = f64>) -> [f64; 4] {
+    let mut sums = [0.0; 4];
     for (c, v) in classes.iter().zip(values) {
         sums[c.index()] += v;
     }
@@ -70,8 +87,8 @@ pub fn class_sums(classes: &[PixelClass], values: impl Iterator<Item = f64>) -> 
 }
 
 /// Pixels per class, in [`PixelClass::ALL`]'s order.
-pub fn class_counts(classes: &[PixelClass]) -> [usize; 3] {
-    let mut counts = [0; 3];
+pub fn class_counts(classes: &[PixelClass]) -> [usize; 4] {
+    let mut counts = [0; 4];
     for c in classes {
         counts[c.index()] += 1;
     }
@@ -89,9 +106,10 @@ mod tests {
             PixelClass::Glossy,
             PixelClass::Cosine,
             PixelClass::NoVertex,
+            PixelClass::GlossyCoat,
         ];
-        assert_eq!(class_counts(&classes), [1, 2, 1]);
-        let sums = class_sums(&classes, [1.0, 2.0, 4.0, 8.0].into_iter());
-        assert_eq!(sums, [2.0, 5.0, 8.0]);
+        assert_eq!(class_counts(&classes), [1, 1, 2, 1]);
+        let sums = class_sums(&classes, [1.0, 2.0, 4.0, 8.0, 16.0].into_iter());
+        assert_eq!(sums, [2.0, 16.0, 5.0, 8.0]);
     }
 }
