@@ -227,28 +227,20 @@ fn pair_normalisers(a: &Figures, b: &Figures) -> Vec<f64> {
 }
 
 /// Means over pixels of two per-pixel variances, each times the pair's
-/// normaliser. `None` when a variance does not cover the image.
-fn relative_means(a: &Figures, b: &Figures, va: &[f32], vb: &[f32]) -> Option<(f64, f64)> {
-    let norm = pair_normalisers(a, b);
+/// normaliser `norm`; NaN when a variance does not cover the image.
+fn relative_means(norm: &[f64], va: &[f32], vb: &[f32]) -> (f64, f64) {
     let n = norm.len();
-    if va.len() != n || vb.len() != n || b.image.pixels.len() != n || n == 0 {
-        return None;
+    if va.len() != n || vb.len() != n || n == 0 {
+        return (f64::NAN, f64::NAN);
     }
-    let sum = |v: &[f32]| v.iter().zip(&norm).map(|(&v, w)| v as f64 * w).sum::<f64>();
-    Some((sum(va) / n as f64, sum(vb) / n as f64))
+    let sum = |v: &[f32]| v.iter().zip(norm).map(|(&v, w)| v as f64 * w).sum::<f64>();
+    (sum(va) / n as f64, sum(vb) / n as f64)
 }
 
 /// Expected relMSE of each image of a pair, both normalised by the pair's
 /// mean image.
 fn expected_relmse(a: &Figures, b: &Figures) -> (f64, f64) {
-    relative_means(a, b, &a.variance, &b.variance).unwrap_or((f64::NAN, f64::NAN))
-}
-
-/// Relative variance per sample of each final iteration of a pair, with
-/// the normaliser of [`expected_relmse`].
-fn relative_final_variance(a: &Figures, b: &Figures) -> (f64, f64) {
-    relative_means(a, b, &a.final_pixel_variance, &b.final_pixel_variance)
-        .unwrap_or((f64::NAN, f64::NAN))
+    relative_means(&pair_normalisers(a, b), &a.variance, &b.variance)
 }
 
 /// Renders `a` and `b` side by side.
@@ -374,9 +366,9 @@ pub fn run_attribution(
             base(Method::Product, seed),
             base(Method::Radiance, seed),
         )?;
-        let (ep, er) = expected_relmse(&p, &r);
-        let (fp, fr) = relative_final_variance(&p, &r);
         let norm = pair_normalisers(&p, &r);
+        let (ep, er) = relative_means(&norm, &p.variance, &r.variance);
+        let (fp, fr) = relative_means(&norm, &p.final_pixel_variance, &r.final_pixel_variance);
         let by_class = |f: &Figures| {
             let v = f.final_pixel_variance.iter().zip(&norm);
             class_sums(&classes, v.map(|(&v, w)| v as f64 * w))
@@ -538,7 +530,17 @@ fn class_markdown(split: &[ClassSplit]) -> String {
     );
     let _ = writeln!(md, "|---|---|---|{rule}---|");
     for c in split {
-        let values: String = c.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
+        let values: String = c
+            .per_seed
+            .iter()
+            .map(|v| {
+                if v.is_finite() {
+                    format!(" {v:.3} |")
+                } else {
+                    " – |".into()
+                }
+            })
+            .collect();
         let finite: Vec<f64> = c
             .per_seed
             .iter()
