@@ -237,6 +237,9 @@ pub fn render_guided<M: WeightModel>(
         Budget::Seconds(s) => ScheduleBudget::Seconds(s),
     });
     let mut films: Vec<Film> = Vec::new();
+    // The last film's per-pixel spread about its own mean (empty below 4
+    // spp), kept from its `mean_variance` for `last_iteration_variance`.
+    let mut last_pixel_variance: Vec<f32> = Vec::new();
     let mut summaries: Vec<IterationSummary> = Vec::new();
     let mut counters = RenderCounters::default();
     let mut records = RecordStats::default();
@@ -434,8 +437,11 @@ pub fn render_guided<M: WeightModel>(
         // that iterations of different lengths compare without bias.
         let mean_variance = if film.spp >= 4 {
             let n = film.spp as f64;
-            iteration_variance(&film, &film.mean()).0 * n / (n - 1.0)
+            let (mean, per_pixel) = iteration_variance(&film, &film.mean());
+            last_pixel_variance = per_pixel;
+            mean * n / (n - 1.0)
         } else {
+            last_pixel_variance.clear();
             f64::INFINITY
         };
         let seconds = clock.seconds() - t0;
@@ -501,10 +507,11 @@ pub fn render_guided<M: WeightModel>(
         left_out_spp,
         weights_check,
     };
+    // The same (n − 1)/n correction as the last iteration's mean_variance.
     let last_iteration_variance = match films.last() {
-        Some(f) if f.spp >= 4 => {
+        Some(f) if !last_pixel_variance.is_empty() => {
             let n = f.spp as f32;
-            sample_variance_about(f, &f.mean())
+            last_pixel_variance
                 .into_iter()
                 .map(|v| v * n / (n - 1.0))
                 .collect()
