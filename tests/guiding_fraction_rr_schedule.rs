@@ -4,8 +4,8 @@
 use ltcguide::film::image::Film;
 use ltcguide::guiding::adam::{AdamConfig, AdamStats, BsdfFraction, NonFiniteGradient};
 use ltcguide::guiding::adrrs::{Adrrs, AdrrsStats};
+use ltcguide::guiding::combine::combine;
 use ltcguide::guiding::schedule::{Budget, IterationReport, Schedule, Step};
-use ltcguide::guiding::train::combine;
 use ltcguide::math::Spectrum;
 use ltcguide::sampling::Rng;
 
@@ -309,36 +309,41 @@ fn schedule_stops_when_extrapolated_variance_rises() {
     assert_eq!(steps.len(), 11); // 9 training iterations (511 spp), final 513, done
 }
 
-/// The renderer's combination (`train::combine`) on two one-pixel films:
-/// A = {1, 3}, B = {4, 8}. Pooled mean 4; spreads about it: A gives
-/// ((1 − 4)² + (3 − 4)²)/2 = 5, B gives (0² + 4²)/2 = 8; variances of the
-/// means 2.5 and 4, so
-/// weights 0.4 and 0.25, normalised 8/13 and 5/13. Image
-/// (8/13)·2 + (5/13)·6 = 46/13; variance (8/13)²·5/2 + (5/13)²·8/2 = 260/169.
+/// The renderer's combination (`combine::combine`) on two-pixel films whose
+/// pixels hold the same samples (so both checkerboard colours measure the
+/// same weights): A = {2, 4}, B = {1, 7, 3, 7}. Pooled mean 4; spreads
+/// about it: A gives (2² + 0²)/2 = 2, B gives (3² + 3² + 1² + 3²)/4 = 7.
+/// B has the most samples, so A's per-sample variance is floored at 7:
+/// variances of the means 7/2 and 7/4, weights normalised 1/3 and 2/3.
+/// Image (1/3)·3 + (2/3)·4.5 = 4 (without the floor, A's 2 would give
+/// weights 7/11 and 4/11 and 3.55); variance, from the measured spreads,
+/// (1/3)²·2/2 + (2/3)²·7/4 = 8/9.
 #[test]
 fn inverse_variance_combination_matches_hand_computation() {
-    let film = |samples: [f32; 2]| {
-        let mut f = Film::new(1, 1);
-        for x in samples {
-            f.add_pass(&[Spectrum::splat(x)]);
+    let film = |samples: &[f32]| {
+        let mut f = Film::new(2, 1);
+        for &x in samples {
+            f.add_pass(&[Spectrum::splat(x); 2]);
         }
         f
     };
-    let (a, b, empty) = (film([1.0, 3.0]), film([4.0, 8.0]), Film::new(1, 1));
+    let (a, b, empty) = (
+        film(&[2.0, 4.0]),
+        film(&[1.0, 7.0, 3.0, 7.0]),
+        Film::new(2, 1),
+    );
     let (image, variance, weights) = combine(&[&a, &b, &empty]).unwrap();
     let close = |x: f64, y: f64| (x - y).abs() < 1e-5 * y.abs().max(1.0);
-    for c in 0..3 {
-        assert!(
-            close(image.pixels[0][c] as f64, 46.0 / 13.0),
-            "{:?}",
-            image.pixels[0]
-        );
+    for p in 0..2 {
+        for c in 0..3 {
+            assert!(close(image.pixels[p][c] as f64, 4.0), "{:?}", image.pixels);
+        }
+        assert!(close(variance[p] as f64, 8.0 / 9.0), "{variance:?}");
     }
-    assert!(close(variance[0] as f64, 260.0 / 169.0), "{variance:?}");
     // The film without samples takes no part.
     assert_eq!(weights.len(), 2);
     assert!(
-        close(weights[0], 8.0 / 13.0) && close(weights[1], 5.0 / 13.0),
+        close(weights[0], 1.0 / 3.0) && close(weights[1], 2.0 / 3.0),
         "{weights:?}"
     );
     assert!(combine(&[&empty]).is_none());

@@ -5,7 +5,7 @@
 //! The guided passes before the decision are left out. They are rendered
 //! without NEE (the paper's setting), and at a few spp their measured
 //! variance misses the rare fireflies that dominate their error, so the
-//! inverse-variance combination (`super::train::combine`) weighs them far
+//! inverse-variance combination (`super::combine::combine`) weighs them far
 //! more than they deserve: on veach-mis, under 3 % of the weight on 13 guided
 //! spp made the image's relMSE 26–31× path tracing's at 30 s
 //! (docs/results-reading.md, sessions 17–18). Path tracing's passes are

@@ -35,7 +35,7 @@
 //!     //   record_pass(&mut tree, &buffers);
 //!     // after the iteration: tree.refine(k); schedule.report(step, report);
 //!   } } }
-//! // final image: train::combine, all iterations weighted by inverse variance
+//! // final image: combine::combine, all iterations weighted by inverse variance
 //! // (after a fallback to path tracing: its passes alone, fallback_image).
 //! ```
 
@@ -43,6 +43,7 @@ pub mod adam;
 pub mod adrrs;
 pub mod aov;
 pub mod build;
+pub mod combine;
 pub mod descent;
 pub mod fallback_image;
 pub mod guide;
