@@ -6,8 +6,11 @@
 //! C = pixel_estimate / adjoint_estimate, the throughput at which the path's
 //! expected contribution equals the pixel value; its lower bound is
 //! 2C/(1+s). Below it the path survives with q = throughput/lower and is
-//! reweighted by 1/q, so survivors carry exactly `lower`: E[weight] =
-//! q · throughput/q = throughput (unbiased). Müller's reference code
+//! reweighted by 1/q, so survivors carry `lower`: E[weight] =
+//! q · throughput/q = throughput (unbiased). q is rounded up to the grid of
+//! the random numbers ([`crate::sampling::roulette`]), where survival has
+//! exactly that probability; survivors then carry slightly less than
+//! `lower`. Müller's reference code
 //! computed the inverse ratio, which is ≥ 1 below the window and so never
 //! killed anything.
 //!
@@ -115,13 +118,7 @@ impl Adrrs {
         stats: &mut AdrrsStats,
     ) -> Option<f32> {
         let q = self.survival_probability(throughput, pixel_estimate, adjoint_estimate, stats);
-        if q >= 1.0 {
-            Some(1.0)
-        } else if u < q {
-            Some(1.0 / q)
-        } else {
-            None
-        }
+        crate::sampling::roulette(q, u)
     }
 }
 
@@ -180,6 +177,32 @@ mod tests {
                 .sum::<f64>()
                 / n as f64;
             assert!((mean - 0.05).abs() < 1e-5, "s = {s}: E[weight] = {mean}");
+        }
+    }
+
+    /// Over every value `next_f32` can return, the survivors' weights
+    /// average to exactly 1 for survival probabilities off the RNG's grid,
+    /// down to ADRRS's floor: survival 1/q with P(u < q) rounded to the
+    /// grid had E = 4/3 at q = 1.5·2⁻²⁴ and 5e30 at q = f32::MIN_POSITIVE.
+    #[test]
+    fn roulette_is_exactly_unbiased_over_the_rng_grid() {
+        let rr = Adrrs::default();
+        let mut st = AdrrsStats::default();
+        let (pixel, adjoint) = (2.0, 0.5);
+        let lower = rr.lower_bound(pixel, adjoint).unwrap();
+        let grid = 1.0 / (1u32 << 24) as f32;
+        for q in [1.5 * grid, 3e-9, 0.3, 1e-30, f32::MIN_POSITIVE, 1e-45] {
+            let t = q * lower;
+            let mut mean = 0.0f64;
+            for j in 0..1u32 << 24 {
+                let u = crate::sampling::grid_f32(j << 8);
+                if let Some(f) = rr.roulette(t, pixel, adjoint, u, &mut st) {
+                    mean += f as f64;
+                }
+            }
+            mean /= (1u64 << 24) as f64;
+            // To the f32 rounding of the survivors' factor 1/q'.
+            assert!((mean - 1.0).abs() < 1.2e-7, "q = {q:e}: E[factor] = {mean}");
         }
     }
 }

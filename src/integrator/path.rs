@@ -362,10 +362,10 @@ pub fn trace_path<G: Guide>(
             RouletteMode::Classic | RouletteMode::Adrrs => {
                 if segments > RR_DEPTH && !adrrs_applied {
                     let q = (throughput.max_element() * eta_scale).min(0.95);
-                    if !(rng.next_f32() < q) {
-                        break;
+                    match crate::sampling::roulette(q, rng.next_f32()) {
+                        Some(factor) => throughput *= factor,
+                        None => break,
                     }
-                    throughput = crate::math::div3(throughput, q);
                 }
             }
         }
