@@ -142,21 +142,30 @@ pub fn square_to_triangle(u: Vec2) -> Vec2 {
     Vec2::new(1.0 - su, u.y * su)
 }
 
-/// The power heuristic with beta = 2, written to be NaN-free when
-/// both pdfs vanish or one is infinite.
+/// The power heuristic with beta = 2, in the ratio of the smaller pdf to
+/// the larger: a² + b² overflowed from pdfs of ~1.8e19 on (and underflowed
+/// below ~1e-19), and both strategies then took weight 1. A pdf that is
+/// zero or NaN gets weight 0 and leaves its partner 1; two infinite pdfs
+/// share 1/2 each.
 #[inline]
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
-    if pdf_a.is_infinite() {
+    if !(pdf_a > 0.0) {
+        return 0.0;
+    }
+    if !(pdf_b > 0.0) {
         return 1.0;
     }
-    let a2 = pdf_a * pdf_a;
-    let b2 = pdf_b * pdf_b;
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
-        a2 / (a2 + b2)
-    } else if pdf_a > 0.0 {
-        1.0
+    if pdf_a == pdf_b {
+        return 0.5;
+    }
+    // r ≤ 1, so r² cannot overflow; it underflows only where the weight
+    // rounds to 0 or 1 anyway. An infinite pdf makes r = 0.
+    if pdf_a > pdf_b {
+        let r = pdf_b / pdf_a;
+        1.0 / (1.0 + r * r)
     } else {
-        0.0
+        let r2 = (pdf_a / pdf_b).powi(2);
+        r2 / (1.0 + r2)
     }
 }
 
@@ -309,6 +318,33 @@ mod tests {
         assert_eq!(survival_on_grid(1.0), 1.0);
         assert_eq!(survival_on_grid(f32::NAN), 1.0);
         assert_eq!(roulette(2.0, 0.999_999_9), Some(1.0));
+    }
+
+    /// The two strategies' weights sum to 1 however far apart their pdfs
+    /// are: with a² + b² overflowing, both got weight 1.
+    #[test]
+    fn power_heuristic_weights_sum_to_one_for_huge_pdfs() {
+        for (a, b) in [
+            (1e30, 1.0),
+            (1e20, 1e20),
+            (1e19, 3e19),
+            (2.0, 1.0),
+            (1e-30, 1e-25),
+        ] {
+            let (wa, wb) = (power_heuristic(a, b), power_heuristic(b, a));
+            assert!((wa + wb - 1.0).abs() < 1e-6, "({a:e}, {b:e}): {wa} + {wb}");
+        }
+        assert_eq!(power_heuristic(1e30, 1.0), 1.0);
+        assert!(power_heuristic(1.0, 1e30) < 1e-30);
+        assert_eq!(power_heuristic(1e20, 1e20), 0.5);
+        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+        assert_eq!(power_heuristic(1.0, f32::INFINITY), 0.0);
+        assert_eq!(power_heuristic(f32::INFINITY, f32::INFINITY), 0.5);
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(1.0, 0.0), 1.0);
+        assert_eq!(power_heuristic(0.0, 1.0), 0.0);
+        assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+        assert_eq!(power_heuristic(1.0, f32::NAN), 1.0);
     }
 
     #[test]
