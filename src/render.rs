@@ -120,6 +120,8 @@ pub struct Guards {
     pub adrrs_invalid_estimate: u64,
     /// Non-finite LTC inputs or outputs zeroed.
     pub ltc_nonfinite: u64,
+    /// Guided iterations left out of the image: their variance was not finite.
+    pub iterations_dropped_nonfinite_variance: u64,
 }
 
 impl Guards {
@@ -132,6 +134,7 @@ impl Guards {
             + self.optimizer_rejected
             + self.adrrs_invalid_estimate
             + self.ltc_nonfinite
+            + self.iterations_dropped_nonfinite_variance
     }
 }
 
@@ -321,6 +324,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         adrrs_invalid_estimate: counters.adrrs.invalid_estimate,
         // Process-wide counter: concurrent renders in one process share it.
         ltc_nonfinite: crate::ltc::nonfinite_guard_count() - ltc_guards_before,
+        iterations_dropped_nonfinite_variance: guiding
+            .as_ref()
+            .map_or(0, |g| g.iterations_dropped_nonfinite_variance),
     };
     let stats = RenderStats {
         scene: scene.name.clone(),

@@ -10,8 +10,8 @@
 //! - [`record`]: per-thread record buffers and their deterministic merge;
 //! - [`adam`]: the learned BSDF-sampling fraction;
 //! - [`adrrs`]: adjoint-driven Russian roulette;
-//! - [`schedule`]: the training schedule and the inverse-variance
-//!   combination of iterations;
+//! - [`schedule`]: the training schedule;
+//! - [`combine`]: the inverse-variance combination of iterations;
 //! - [`trial`]: the plan's measured choice between the guide's weights and
 //!   path tracing;
 //! - [`fallback_image`]: what a run that falls back to path tracing images.
@@ -35,7 +35,7 @@
 //!     //   record_pass(&mut tree, &buffers);
 //!     // after the iteration: tree.refine(k); schedule.report(step, report);
 //!   } } }
-//! // final image: train::combine, all iterations weighted by inverse variance
+//! // final image: combine::combine, all iterations weighted by inverse variance
 //! // (after a fallback to path tracing: its passes alone, fallback_image).
 //! ```
 
@@ -43,6 +43,7 @@ pub mod adam;
 pub mod adrrs;
 pub mod aov;
 pub mod build;
+pub mod combine;
 pub mod descent;
 pub mod fallback_image;
 pub mod guide;

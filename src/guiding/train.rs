@@ -5,6 +5,8 @@
 //! A run whose strategy trial falls back to path tracing images path
 //! tracing's passes alone (`super::fallback_image`).
 
+pub use super::combine::combine;
+use super::combine::{combine_counting, iteration_variance, pooled_mean};
 use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
 use super::record::{RecordStats, passes_within_record_budget, record_pass};
@@ -60,6 +62,9 @@ pub struct GuidingStats {
     pub records_rejected_zero_pdf: u64,
     pub adam_steps: u64,
     pub adam_rejected: u64,
+    /// Iterations left out of the final image because their variance was
+    /// not finite (see [`combine_counting`]).
+    pub iterations_dropped_nonfinite_variance: u64,
     /// Non-empty when guiding was dropped because it did not pay.
     pub fallback: String,
     /// Guided passes rendered before a fallback and left out of the image.
@@ -83,118 +88,6 @@ pub struct GuidedOutput {
     pub tree: SdTree,
 }
 
-/// The pooled per-pixel mean of several films (all samples of all films).
-pub(super) fn pooled_mean(films: &[&Film]) -> Vec<Spectrum> {
-    let n: u32 = films.iter().map(|f| f.spp).sum();
-    let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
-    let len = films.first().map_or(0, |f| f.sum.len());
-    (0..len)
-        .map(|i| films.iter().map(|f| f.sum[i]).sum::<Spectrum>() * inv)
-        .collect()
-}
-
-/// Per-pixel single-sample variance of `film` about the mean `mu` (channel
-/// average): Σ (x − μ)² / n from the film's sums. Measuring the spread
-/// about the pooled mean of all iterations rather than the film's own mean
-/// keeps it meaningful for 1- and 2-spp iterations, whose own sample
-/// variance is zero or nearly so in most pixels of a hard scene.
-fn sample_variance_about(film: &Film, mu: &[Spectrum]) -> Vec<f32> {
-    let n = film.spp.max(1) as f64;
-    film.sum
-        .iter()
-        .zip(&film.sum_sq)
-        .zip(mu)
-        .map(|((s, q), m)| {
-            let mut v = 0.0f64;
-            for c in 0..3 {
-                let (s, q, m) = (s[c] as f64, q[c] as f64, m[c] as f64);
-                v += ((q - 2.0 * m * s) / n + m * m).max(0.0);
-            }
-            (v / 3.0) as f32
-        })
-        .collect()
-}
-
-/// Mean over pixels of the variance of the film's pixel means.
-///
-/// Deliberately unclamped. A per-pixel clamp of the sample variance s² at
-/// some C makes the estimate depend on the sample count: one firefly x in n
-/// samples adds x²/n to s², so it is clamped at 1 spp and counted at 64 spp.
-/// On veach-ajar that made the measured per-sample variance of the same
-/// (pure BSDF) estimator grow 13.7 → 25.9 → 41.4 → 65.7 from 4 to 33 spp,
-/// which stopped training after 8 spp and gave noisy early iterations too
-/// much weight. Unclamped, the mean over all pixels is a consistent estimate
-/// of the mean per-sample variance at any n, fireflies included, which is
-/// what relMSE pays for. A non-finite pixel variance (impossible while the
-/// film's sample guard holds) makes the whole iteration unusable (∞).
-fn iteration_variance(film: &Film, mu: &[Spectrum]) -> (f64, Vec<f32>) {
-    let sample_var = sample_variance_about(film, mu);
-    let spp = film.spp.max(1) as f64;
-    let total: f64 = sample_var
-        .iter()
-        .map(|&v| {
-            if v.is_finite() {
-                v as f64
-            } else {
-                f64::INFINITY
-            }
-        })
-        .sum();
-    (total / sample_var.len().max(1) as f64 / spp, sample_var)
-}
-
-/// Inverse-variance combination of iteration images (weights 1/mean
-/// variance, DESIGN.md §5), with the per-pixel variance of the combination
-/// and the normalised weights.
-pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
-    let first = films.first()?;
-    let films: Vec<&Film> = films.iter().copied().filter(|f| f.spp > 0).collect();
-    if films.is_empty() {
-        return None;
-    }
-    let mu = pooled_mean(&films);
-    let per_film: Vec<(f64, Vec<f32>)> = films.iter().map(|f| iteration_variance(f, &mu)).collect();
-    let mut weights: Vec<f64> = per_film
-        .iter()
-        .map(|(v, _)| {
-            if v.is_finite() && *v > 0.0 {
-                1.0 / v
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    if weights.iter().all(|&w| w == 0.0) {
-        // Noise-free (or unmeasurable): weigh by sample count.
-        weights = films.iter().map(|f| f.spp as f64).collect();
-    }
-    let total: f64 = weights.iter().sum();
-    let n = first.width * first.height;
-    let mut pixels = vec![Spectrum::ZERO; n];
-    let mut variance = vec![0f32; n];
-    for ((f, (_, sample_var)), &w) in films.iter().zip(&per_film).zip(&weights) {
-        if w == 0.0 {
-            continue;
-        }
-        let a = (w / total) as f32;
-        let inv_spp = 1.0 / f.spp as f32;
-        for i in 0..n {
-            pixels[i] += f.sum[i] * (a * inv_spp);
-            variance[i] += a * a * sample_var[i] * inv_spp;
-        }
-    }
-    let normalized: Vec<f64> = weights.iter().map(|w| w / total).collect();
-    Some((
-        Image {
-            width: first.width,
-            height: first.height,
-            pixels,
-        },
-        variance,
-        normalized,
-    ))
-}
-
 /// The films the image combines: every iteration's (with the current one,
 /// when given), or after a fallback the one film of path tracing's passes.
 fn image_films<'a>(
@@ -206,13 +99,6 @@ fn image_films<'a>(
         Some(image) => vec![image.film()],
         None => films.iter().chain(current).collect(),
     }
-}
-
-/// Efficiency 1 / (variance per sample × seconds per sample) of `film`
-/// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
-/// it is 1 / (variance of the film's mean × seconds).
-pub(super) fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
-    1.0 / (iteration_variance(film, mu).0 * seconds)
 }
 
 /// Renders with an SD-tree guide whose child weights come from `model`.
@@ -239,7 +125,7 @@ pub fn render_guided<M: WeightModel>(
     let mut films: Vec<Film> = Vec::new();
     // The last film's per-pixel spread about its own mean (empty below 4
     // spp), kept from its `mean_variance` for `last_iteration_variance`.
-    let mut last_pixel_variance: Vec<f32> = Vec::new();
+    let mut last_pixel_variance: Vec<f64> = Vec::new();
     let mut summaries: Vec<IterationSummary> = Vec::new();
     let mut counters = RenderCounters::default();
     let mut records = RecordStats::default();
@@ -437,7 +323,7 @@ pub fn render_guided<M: WeightModel>(
         // that iterations of different lengths compare without bias.
         let mean_variance = if film.spp >= 4 {
             let n = film.spp as f64;
-            let (mean, per_pixel) = iteration_variance(&film, &film.mean());
+            let (mean, per_pixel) = iteration_variance(&film, &pooled_mean(&[&film]));
             last_pixel_variance = per_pixel;
             mean * n / (n - 1.0)
         } else {
@@ -469,7 +355,9 @@ pub fn render_guided<M: WeightModel>(
         weights_check = t.unfinished_note(model.name(), cheaper_name);
     }
     let refs = image_films(&films, None, &fallback_image);
-    let (image, variance, weights) = combine(&refs).unwrap_or_else(|| {
+    let mut iterations_dropped = 0;
+    let combined = combine_counting(&refs, &mut iterations_dropped);
+    let (image, variance, weights) = combined.unwrap_or_else(|| {
         (
             Image {
                 width: w,
@@ -503,6 +391,7 @@ pub fn render_guided<M: WeightModel>(
         records_rejected_zero_pdf: records.rejected_zero_pdf,
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
+        iterations_dropped_nonfinite_variance: iterations_dropped,
         fallback,
         left_out_spp,
         weights_check,
@@ -510,10 +399,10 @@ pub fn render_guided<M: WeightModel>(
     // The same (n − 1)/n correction as the last iteration's mean_variance.
     let last_iteration_variance = match films.last() {
         Some(f) if !last_pixel_variance.is_empty() => {
-            let n = f.spp as f32;
+            let n = f.spp as f64;
             last_pixel_variance
                 .into_iter()
-                .map(|v| v * n / (n - 1.0))
+                .map(|v| (v * n / (n - 1.0)) as f32)
                 .collect()
         }
         _ => Vec::new(),
@@ -526,37 +415,5 @@ pub fn render_guided<M: WeightModel>(
         counters,
         stats,
         tree,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sampling::Rng;
-
-    /// Per-sample variance measured from `n`-spp films of a heavy-tailed
-    /// estimator (1 almost always, 1000 with probability 1e-3).
-    fn measured_per_sample_variance(n: u32) -> f64 {
-        let (w, h) = (200, 200);
-        let mut film = Film::new(w, h);
-        let mut rng = Rng::new(9, n as u64);
-        for _ in 0..n {
-            let pass: Vec<Spectrum> = (0..w * h)
-                .map(|_| Spectrum::splat(if rng.next_f32() < 1e-3 { 1000.0 } else { 1.0 }))
-                .collect();
-            film.add_pass(&pass);
-        }
-        let nf = n as f64;
-        iteration_variance(&film, &film.mean()).0 * nf / (nf - 1.0) * nf
-    }
-
-    #[test]
-    fn iteration_variance_does_not_depend_on_the_sample_count() {
-        // True variance: 1e-3·(1000 − 1.999)² + (1 − 1e-3)·(1 − 1.999)² ≈ 997.
-        let truth = 1e-3 * 998.001f64.powi(2) + 0.999 * 0.999f64.powi(2);
-        for n in [4, 64] {
-            let v = measured_per_sample_variance(n);
-            assert!((v / truth - 1.0).abs() < 0.25, "n = {n}: {v} vs {truth}");
-        }
     }
 }
