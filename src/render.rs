@@ -110,6 +110,8 @@ pub struct Guards {
     pub image_nonfinite_samples: u64,
     /// BSDF or guide samples with unusable pdf or weight (path ended).
     pub invalid_scattering: u64,
+    /// NaN/Inf BSDF values, pdfs or sampled directions (zeroed or rejected).
+    pub bsdf_nonfinite: u64,
     /// Learning records rejected before they could reach the SD-tree.
     pub tree_records_non_finite: u64,
     pub tree_records_negative: u64,
@@ -128,6 +130,7 @@ impl Guards {
     pub fn total(&self) -> u64 {
         self.image_nonfinite_samples
             + self.invalid_scattering
+            + self.bsdf_nonfinite
             + self.tree_records_non_finite
             + self.tree_records_negative
             + self.tree_records_zero_pdf
@@ -315,6 +318,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let guards = Guards {
         image_nonfinite_samples: counters.nonfinite_samples,
         invalid_scattering: counters.invalid_scattering,
+        bsdf_nonfinite: counters.bsdf_nonfinite,
         tree_records_non_finite: guiding
             .as_ref()
             .map_or(0, |g| g.records_rejected_non_finite),

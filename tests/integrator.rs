@@ -71,3 +71,55 @@ fn sphere_light_direct_lighting_matches_closed_form_with_and_without_nee() {
         }
     }
 }
+
+/// A BSDF that evaluates and samples to Inf (a diffuse floor whose
+/// reflectance was made infinite after loading) is zeroed by the BSDF layer,
+/// and the path loop counts every such value: NEE's evaluation and the
+/// BSDF sample each time. Nothing non-finite reaches the estimate.
+#[test]
+fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
+    use ltcguide::bsdf::MaterialKind;
+    use ltcguide::texture::Texture;
+    let mut scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let floor = scene
+        .materials
+        .iter_mut()
+        .find(|m| matches!(&m.kind, MaterialKind::Diffuse { reflectance: Texture::Constant(r) } if r.x == 0.5))
+        .unwrap();
+    floor.kind = MaterialKind::Diffuse {
+        reflectance: Texture::Constant(glam::Vec3::splat(f32::INFINITY)),
+    };
+    let settings = PathSettings {
+        nee: true,
+        max_depth: Some(3),
+        roulette: RouletteMode::Off,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    };
+    let mut rng = Rng::new(3, 0);
+    let mut counters = RenderCounters::default();
+    let mut scratch = PathScratch::default();
+    let paths = 100;
+    for _ in 0..paths {
+        let v = trace_path(
+            &scene,
+            &NoGuide,
+            &settings,
+            Vec3::new(0.0, 1.0, 0.0),
+            -Vec3::Y,
+            &mut rng,
+            &mut counters,
+            &mut scratch,
+            &mut (),
+            &mut (),
+            0.0,
+        );
+        assert_eq!(v, Vec3::ZERO);
+    }
+    assert_eq!(counters.nonfinite_samples, 0);
+    // Every path: its BSDF sample, and NEE's evaluation where the light
+    // sample was visible (most of them).
+    assert!(
+        counters.bsdf_nonfinite > paths && counters.bsdf_nonfinite <= 2 * paths,
+        "{counters:?}"
+    );
+}
