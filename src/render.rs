@@ -112,13 +112,16 @@ pub struct Guards {
     pub invalid_scattering: u64,
     /// NaN/Inf BSDF values, pdfs or sampled directions (zeroed or rejected).
     pub bsdf_nonfinite: u64,
+    /// Guide vertices dropped for NaN/Inf weights at the root.
+    pub guide_root_nonfinite: u64,
     /// Learning records rejected before they could reach the SD-tree.
     pub tree_records_non_finite: u64,
     pub tree_records_negative: u64,
     pub tree_records_zero_pdf: u64,
     /// Adam steps rejected (non-finite gradient, vanishing mixture pdf).
     pub optimizer_rejected: u64,
-    /// ADRRS decisions without usable estimates (no roulette played).
+    /// ADRRS decisions whose estimates were NaN, Inf or negative (no
+    /// roulette played).
     pub adrrs_invalid_estimate: u64,
     /// Non-finite LTC inputs or outputs zeroed.
     pub ltc_nonfinite: u64,
@@ -131,6 +134,7 @@ impl Guards {
         self.image_nonfinite_samples
             + self.invalid_scattering
             + self.bsdf_nonfinite
+            + self.guide_root_nonfinite
             + self.tree_records_non_finite
             + self.tree_records_negative
             + self.tree_records_zero_pdf
@@ -319,6 +323,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         image_nonfinite_samples: counters.nonfinite_samples,
         invalid_scattering: counters.invalid_scattering,
         bsdf_nonfinite: counters.bsdf_nonfinite,
+        guide_root_nonfinite: counters.guide_root_nonfinite,
         tree_records_non_finite: guiding
             .as_ref()
             .map_or(0, |g| g.records_rejected_non_finite),

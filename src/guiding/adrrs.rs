@@ -53,7 +53,10 @@ pub struct AdrrsStats {
     pub above_window: u64,
     /// Calls where roulette was played (survival < 1).
     pub played: u64,
-    /// Calls with unusable inputs: no roulette.
+    /// Calls with unusable inputs, no roulette: NaN, Inf or negative
+    /// estimates or throughput, a window bound that overflowed (and zero
+    /// estimates passed to `survival_probability`, which the path loop
+    /// skips as legitimate before, see [`usable_estimates`]).
     pub invalid_estimate: u64,
 }
 
@@ -63,6 +66,24 @@ impl AdrrsStats {
         self.played += o.played;
         self.invalid_estimate += o.invalid_estimate;
     }
+}
+
+/// Whether the path loop plays ADRRS with these estimates: both positive
+/// and finite. A zero estimate (a dark pixel, no light recorded near the
+/// vertex yet) is legitimate and means no roulette; a NaN, Inf or negative
+/// one is an error, counted in `invalid_estimate`.
+#[inline]
+pub fn usable_estimates(
+    pixel_estimate: f32,
+    adjoint_estimate: f32,
+    stats: &mut AdrrsStats,
+) -> bool {
+    let valid = |x: f32| x.is_finite() && x >= 0.0;
+    if !(valid(pixel_estimate) && valid(adjoint_estimate)) {
+        stats.invalid_estimate += 1;
+        return false;
+    }
+    pixel_estimate > 0.0 && adjoint_estimate > 0.0
 }
 
 impl Adrrs {
@@ -178,6 +199,24 @@ mod tests {
                 / n as f64;
             assert!((mean - 0.05).abs() < 1e-5, "s = {s}: E[weight] = {mean}");
         }
+    }
+
+    #[test]
+    fn only_non_finite_or_negative_estimates_are_invalid() {
+        let mut st = AdrrsStats::default();
+        assert!(usable_estimates(2.0, 0.5, &mut st));
+        assert!(!usable_estimates(0.0, 0.5, &mut st));
+        assert!(!usable_estimates(2.0, 0.0, &mut st));
+        assert_eq!(st.invalid_estimate, 0);
+        for (pix, adj) in [
+            (f32::NAN, 1.0),
+            (1.0, f32::NAN),
+            (1.0, f32::INFINITY),
+            (-1.0, 1.0),
+        ] {
+            assert!(!usable_estimates(pix, adj, &mut st));
+        }
+        assert_eq!(st.invalid_estimate, 4);
     }
 
     /// Over every value `next_f32` can return, the survivors' weights

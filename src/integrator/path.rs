@@ -217,6 +217,7 @@ pub fn trace_path<G: Guide>(
                 },
                 location,
                 cache,
+                counters,
             );
         }
         // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected
@@ -225,7 +226,7 @@ pub fn trace_path<G: Guide>(
         let mut adrrs_applied = false;
         if adrrs_here
             && let Some(adjoint) = guide_vertex.as_ref().and_then(|g| g.adjoint_estimate())
-            && pixel_estimate > 0.0
+            && crate::guiding::adrrs::usable_estimates(pixel_estimate, adjoint, &mut counters.adrrs)
         {
             adrrs_applied = true;
             let t = crate::math::luminance(throughput);
