@@ -439,6 +439,11 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         args.out.display(),
         png.display()
     );
+    let guarded = s.guards.total();
+    if guarded > 0 {
+        println!("guards: {}", s.guards.describe());
+        eprintln!("warning: {guarded} NaN/Inf or degenerate values guarded (zeroed or left out)");
+    }
     if alpha_aov {
         let Some(tree) = &result.tree else {
             return Err(ALPHA_NEEDS_GUIDING.into());
