@@ -265,3 +265,72 @@ fn guards_that_fire_are_reported_by_render_and_compare() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `error` and `compare` refuse an image with a NaN, Inf or negative
+/// pixel (relMSE would be NaN): exit 2, one error line naming the file
+/// and the first bad pixel; compare before it renders anything.
+#[test]
+fn images_with_non_finite_or_negative_pixels_are_refused() {
+    use ltcguide::film::exr_io::write_rgb;
+    let dir = work_dir("badref");
+    let good = dir.join("good.exr");
+    write_rgb(&good, 8, 8, &[glam::Vec3::splat(0.5); 64]).unwrap();
+    let bin = env!("CARGO_BIN_EXE_ltcguide");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let r = Command::new(bin).args(args).output().unwrap();
+        let stdout = String::from_utf8_lossy(&r.stdout).into_owned();
+        (
+            r.status.code(),
+            stdout,
+            String::from_utf8_lossy(&r.stderr).into_owned(),
+        )
+    };
+    let (code, stdout, err) = run(&["error".as_ref(), good.as_ref(), good.as_ref()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(stdout.contains("relmse 0.000000e0"), "{stdout}");
+    for (name, value) in [("nan", f32::NAN), ("inf", f32::INFINITY), ("neg", -1.0)] {
+        let mut pixels = vec![glam::Vec3::splat(0.5); 64];
+        // Pixel (3, 1), and a later one: the first is named.
+        pixels[8 + 3].y = value;
+        pixels[40] = glam::Vec3::splat(value);
+        let bad = dir.join(format!("{name}.exr"));
+        write_rgb(&bad, 8, 8, &pixels).unwrap();
+        for args in [
+            [good.as_path(), bad.as_path()],
+            [bad.as_path(), good.as_path()],
+        ] {
+            let (code, _, err) = run(&["error".as_ref(), args[0].as_ref(), args[1].as_ref()]);
+            assert_eq!(code, Some(2), "{err}");
+            let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+            assert_eq!(errors.len(), 1, "{err}");
+            assert!(errors[0].contains(&format!("{name}.exr")), "{err}");
+            assert!(
+                errors[0].contains("(3, 1)") && errors[0].contains("2 pixels"),
+                "{err}"
+            );
+        }
+        let out = dir.join(format!("cmp-{name}"));
+        let (code, _, err) = run(&[
+            "compare".as_ref(),
+            default_scene().as_os_str(),
+            "--reference".as_ref(),
+            bad.as_os_str(),
+            "--time".as_ref(),
+            "1".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert_eq!(code, Some(2), "{err}");
+        let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(errors.len(), 1, "{err}");
+        assert!(
+            errors[0].contains(&format!("{name}.exr")) && errors[0].contains("(3, 1)"),
+            "{err}"
+        );
+        assert!(
+            !err.contains("compare: ") && !out.exists(),
+            "rendered first: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -102,6 +102,17 @@ pub struct Image {
 }
 
 impl Image {
+    /// The first pixel, as (x, y, value), with a NaN, Inf or negative
+    /// channel, and how many such pixels there are: an error metric
+    /// against such an image is NaN or meaningless.
+    pub fn invalid_pixels(&self) -> Option<(usize, usize, Spectrum, usize)> {
+        let bad = |p: &Spectrum| !crate::math::is_finite3(*p) || p.min_element() < 0.0;
+        let first = self.pixels.iter().position(bad)?;
+        let count = self.pixels.iter().filter(|p| bad(p)).count();
+        let w = self.width.max(1);
+        Some((first % w, first / w, self.pixels[first], count))
+    }
+
     pub fn mean_rgb(&self) -> Spectrum {
         let s: glam::DVec3 = self.pixels.iter().map(|p| p.as_dvec3()).sum();
         (s / self.pixels.len().max(1) as f64).as_vec3()
