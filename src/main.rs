@@ -5,7 +5,7 @@
 
 use clap::{Args, Parser, Subcommand};
 use ltcguide::experiment::compare::NeeChoice;
-use ltcguide::film::exr_io::{read_image, write_rgb};
+use ltcguide::film::exr_io::{read_valid_image, write_rgb};
 use ltcguide::film::metrics::{mae, relmse, relmse_tail};
 use ltcguide::film::png_io::write_png;
 use ltcguide::guiding::product::CosineLobes;
@@ -439,6 +439,11 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         args.out.display(),
         png.display()
     );
+    let guarded = s.guards.total();
+    if guarded > 0 {
+        println!("guards: {}", s.guards.describe());
+        eprintln!("warning: {guarded} NaN/Inf or degenerate values guarded (zeroed or left out)");
+    }
     if alpha_aov {
         let Some(tree) = &result.tree else {
             return Err(ALPHA_NEEDS_GUIDING.into());
@@ -476,7 +481,7 @@ fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     let scene = load(&args.scene)?;
-    let reference = read_image(&args.reference)?;
+    let reference = read_valid_image(&args.reference)?;
     let opts = ltcguide::experiment::compare::CompareOptions {
         methods: args.methods.clone(),
         seconds: args.time,
@@ -552,8 +557,8 @@ fn cmd_fit_ltc(out_dir: PathBuf, resolution: usize, threads: usize) -> Result<()
 const WORST_PIXEL_FRACTION: f64 = 1e-3;
 
 fn cmd_error(image: &Path, reference: &Path) -> Result<(), String> {
-    let img = read_image(image)?;
-    let reference = read_image(reference)?;
+    let img = read_valid_image(image)?;
+    let reference = read_valid_image(reference)?;
     println!("mae {:.6e}", mae(&img, &reference)?);
     println!("relmse {:.6e}", relmse(&img, &reference)?);
     // How much of relMSE a few firefly pixels carry (see RelmseTail).

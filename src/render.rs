@@ -110,28 +110,60 @@ pub struct Guards {
     pub image_nonfinite_samples: u64,
     /// BSDF or guide samples with unusable pdf or weight (path ended).
     pub invalid_scattering: u64,
+    /// NaN/Inf BSDF values, pdfs or sampled directions (zeroed or rejected).
+    pub bsdf_nonfinite: u64,
+    /// Guide vertices dropped for NaN/Inf weights at the root.
+    pub guide_root_nonfinite: u64,
     /// Learning records rejected before they could reach the SD-tree.
     pub tree_records_non_finite: u64,
     pub tree_records_negative: u64,
     pub tree_records_zero_pdf: u64,
     /// Adam steps rejected (non-finite gradient, vanishing mixture pdf).
     pub optimizer_rejected: u64,
-    /// ADRRS decisions without usable estimates (no roulette played).
+    /// ADRRS decisions whose estimates were NaN, Inf or negative (no
+    /// roulette played).
     pub adrrs_invalid_estimate: u64,
     /// Non-finite LTC inputs or outputs zeroed.
     pub ltc_nonfinite: u64,
+    /// Guided iterations left out of the image: their variance was not finite.
+    pub iterations_dropped_nonfinite_variance: u64,
 }
 
 impl Guards {
+    /// Every counter with its name as --stats-json spells it (the one list
+    /// `total` and `describe` read, so neither can miss a counter).
+    pub fn entries(&self) -> [(&'static str, u64); 11] {
+        [
+            ("image_nonfinite_samples", self.image_nonfinite_samples),
+            ("invalid_scattering", self.invalid_scattering),
+            ("bsdf_nonfinite", self.bsdf_nonfinite),
+            ("guide_root_nonfinite", self.guide_root_nonfinite),
+            ("tree_records_non_finite", self.tree_records_non_finite),
+            ("tree_records_negative", self.tree_records_negative),
+            ("tree_records_zero_pdf", self.tree_records_zero_pdf),
+            ("optimizer_rejected", self.optimizer_rejected),
+            ("adrrs_invalid_estimate", self.adrrs_invalid_estimate),
+            ("ltc_nonfinite", self.ltc_nonfinite),
+            (
+                "iterations_dropped_nonfinite_variance",
+                self.iterations_dropped_nonfinite_variance,
+            ),
+        ]
+    }
+
     pub fn total(&self) -> u64 {
-        self.image_nonfinite_samples
-            + self.invalid_scattering
-            + self.tree_records_non_finite
-            + self.tree_records_negative
-            + self.tree_records_zero_pdf
-            + self.optimizer_rejected
-            + self.adrrs_invalid_estimate
-            + self.ltc_nonfinite
+        self.entries().iter().map(|e| e.1).sum()
+    }
+
+    /// The counters that fired, by name: `name N, name N`; empty if none.
+    pub fn describe(&self) -> String {
+        let fired: Vec<String> = self
+            .entries()
+            .iter()
+            .filter(|e| e.1 > 0)
+            .map(|(name, n)| format!("{name} {n}"))
+            .collect();
+        fired.join(", ")
     }
 }
 
@@ -312,6 +344,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let guards = Guards {
         image_nonfinite_samples: counters.nonfinite_samples,
         invalid_scattering: counters.invalid_scattering,
+        bsdf_nonfinite: counters.bsdf_nonfinite,
+        guide_root_nonfinite: counters.guide_root_nonfinite,
         tree_records_non_finite: guiding
             .as_ref()
             .map_or(0, |g| g.records_rejected_non_finite),
@@ -321,6 +355,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         adrrs_invalid_estimate: counters.adrrs.invalid_estimate,
         // Process-wide counter: concurrent renders in one process share it.
         ltc_nonfinite: crate::ltc::nonfinite_guard_count() - ltc_guards_before,
+        iterations_dropped_nonfinite_variance: guiding
+            .as_ref()
+            .map_or(0, |g| g.iterations_dropped_nonfinite_variance),
     };
     let stats = RenderStats {
         scene: scene.name.clone(),
@@ -446,4 +483,38 @@ fn render_unguided(
         }
     }
     (film, counters)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `entries` lists every serialised counter once, in order, so that
+    /// `total` and `describe` see every guard a new field adds.
+    #[test]
+    fn guards_entries_cover_every_counter() {
+        let json = serde_json::to_value(Guards::default()).unwrap();
+        let keys: Vec<&str> = json
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
+        let mut names: Vec<&str> = Guards::default().entries().iter().map(|e| e.0).collect();
+        names.sort_unstable();
+        let mut sorted = keys.clone();
+        sorted.sort_unstable();
+        assert_eq!(names, sorted);
+        let g = Guards {
+            bsdf_nonfinite: 2,
+            iterations_dropped_nonfinite_variance: 1,
+            ..Guards::default()
+        };
+        assert_eq!(g.total(), 3);
+        assert_eq!(
+            g.describe(),
+            "bsdf_nonfinite 2, iterations_dropped_nonfinite_variance 1"
+        );
+        assert_eq!(Guards::default().describe(), "");
+    }
 }

@@ -37,7 +37,7 @@ impl Rng {
     /// Uniform in [0, 1), never exactly 1.
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+        grid_f32(self.next_u32())
     }
 
     #[inline]
@@ -52,6 +52,42 @@ impl Rng {
         let lo = (self.next_u32() >> 6) as u64;
         ((hi << 26) | lo) as f64 * (1.0 / (1u64 << 53) as f64)
     }
+}
+
+/// The float [`Rng::next_f32`] makes of 32 random bits: its top 24 bits
+/// times 2⁻²⁴, a multiple of [`F32_GRID`] in [0, 1).
+#[inline]
+pub fn grid_f32(bits: u32) -> f32 {
+    (bits >> 8) as f32 * F32_GRID
+}
+
+/// The spacing of the values [`Rng::next_f32`] returns.
+pub const F32_GRID: f32 = 1.0 / (1u32 << 24) as f32;
+
+/// A survival probability `q` rounded up to [`F32_GRID`], within [2⁻²⁴, 1]
+/// (1 for NaN or q ≥ 1). Exactly q'·2²⁴ of the 2²⁴ values of
+/// [`Rng::next_f32`] lie below q', so `u < q'` survives with probability
+/// exactly q', and a survivor weighted 1/q' keeps the estimate unbiased.
+/// Compared with q itself, P(u < q) is q rounded up to the grid: weighted
+/// 1/q, the survivors' expectation is off by up to 2⁻²⁴/q relative (×1.33
+/// at q = 1.5·2⁻²⁴), and a q far below 2⁻²⁴ gave huge weights.
+#[inline]
+pub fn survival_on_grid(q: f32) -> f32 {
+    if !(q < 1.0) {
+        return 1.0;
+    }
+    // Scaling by a power of two and ceil are exact; so is k·2⁻²⁴ for k ≤ 2²⁴.
+    (q * (1u32 << 24) as f32).ceil().max(1.0) * F32_GRID
+}
+
+/// Russian roulette with survival probability `q` and `u` from
+/// [`Rng::next_f32`]: the factor to weight a survivor by, `None` when the
+/// path ends. Survival and weight use [`survival_on_grid`]'s q', so
+/// E[factor] = 1 up to the rounding of 1/q'.
+#[inline]
+pub fn roulette(q: f32, u: f32) -> Option<f32> {
+    let q = survival_on_grid(q);
+    (u < q).then(|| 1.0 / q)
 }
 
 /// Concentric map of Shirley and Chiu: preserves stratification better than
@@ -106,21 +142,30 @@ pub fn square_to_triangle(u: Vec2) -> Vec2 {
     Vec2::new(1.0 - su, u.y * su)
 }
 
-/// The power heuristic with beta = 2, written to be NaN-free when
-/// both pdfs vanish or one is infinite.
+/// The power heuristic with beta = 2, in the ratio of the smaller pdf to
+/// the larger: a² + b² overflowed from pdfs of ~1.8e19 on (and underflowed
+/// below ~1e-19), and both strategies then took weight 1. A pdf that is
+/// zero or NaN gets weight 0 and leaves its partner 1; two infinite pdfs
+/// share 1/2 each.
 #[inline]
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
-    if pdf_a.is_infinite() {
+    if !(pdf_a > 0.0) {
+        return 0.0;
+    }
+    if !(pdf_b > 0.0) {
         return 1.0;
     }
-    let a2 = pdf_a * pdf_a;
-    let b2 = pdf_b * pdf_b;
-    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
-        a2 / (a2 + b2)
-    } else if pdf_a > 0.0 {
-        1.0
+    if pdf_a == pdf_b {
+        return 0.5;
+    }
+    // r ≤ 1, so r² cannot overflow; it underflows only where the weight
+    // rounds to 0 or 1 anyway. An infinite pdf makes r = 0.
+    if pdf_a > pdf_b {
+        let r = pdf_b / pdf_a;
+        1.0 / (1.0 + r * r)
     } else {
-        0.0
+        let r2 = (pdf_a / pdf_b).powi(2);
+        r2 / (1.0 + r2)
     }
 }
 
@@ -238,6 +283,68 @@ mod tests {
             }
             assert_eq!(d.sample_discrete(f32::NAN).0, 0);
         }
+    }
+
+    /// Every grid value of `next_f32` enumerated: survival is exactly q',
+    /// q' is q rounded up (by less than one grid step), and the factor
+    /// averages to 1 (to the f32 rounding of 1/q').
+    #[test]
+    fn roulette_on_the_grid_survives_with_its_probability() {
+        for q in [
+            1.5 * F32_GRID,
+            3e-9,
+            F32_GRID,
+            0.3,
+            0.95,
+            1e-30,
+            f32::MIN_POSITIVE,
+            0.0,
+        ] {
+            let qg = survival_on_grid(q);
+            let up = qg as f64 - q as f64;
+            let least = qg == F32_GRID || up < F32_GRID as f64;
+            assert!(qg >= q && qg >= F32_GRID && least, "{q:e}: {qg:e}");
+            let (mut survived, mut mean) = (0u64, 0.0f64);
+            for j in 0..1u32 << 24 {
+                if let Some(f) = roulette(q, grid_f32(j << 8)) {
+                    survived += 1;
+                    mean += f as f64;
+                }
+            }
+            let n = (1u64 << 24) as f64;
+            assert_eq!(survived as f64 / n, qg as f64, "q = {q:e}");
+            assert!((mean / n - 1.0).abs() < 1.2e-7, "q = {q:e}: {}", mean / n);
+        }
+        assert_eq!(survival_on_grid(1.0), 1.0);
+        assert_eq!(survival_on_grid(f32::NAN), 1.0);
+        assert_eq!(roulette(2.0, 0.999_999_9), Some(1.0));
+    }
+
+    /// The two strategies' weights sum to 1 however far apart their pdfs
+    /// are: with a² + b² overflowing, both got weight 1.
+    #[test]
+    fn power_heuristic_weights_sum_to_one_for_huge_pdfs() {
+        for (a, b) in [
+            (1e30, 1.0),
+            (1e20, 1e20),
+            (1e19, 3e19),
+            (2.0, 1.0),
+            (1e-30, 1e-25),
+        ] {
+            let (wa, wb) = (power_heuristic(a, b), power_heuristic(b, a));
+            assert!((wa + wb - 1.0).abs() < 1e-6, "({a:e}, {b:e}): {wa} + {wb}");
+        }
+        assert_eq!(power_heuristic(1e30, 1.0), 1.0);
+        assert!(power_heuristic(1.0, 1e30) < 1e-30);
+        assert_eq!(power_heuristic(1e20, 1e20), 0.5);
+        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+        assert_eq!(power_heuristic(1.0, f32::INFINITY), 0.0);
+        assert_eq!(power_heuristic(f32::INFINITY, f32::INFINITY), 0.5);
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(1.0, 0.0), 1.0);
+        assert_eq!(power_heuristic(0.0, 1.0), 0.0);
+        assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+        assert_eq!(power_heuristic(1.0, f32::NAN), 1.0);
     }
 
     #[test]

@@ -161,3 +161,176 @@ fn bad_arguments_are_refused_before_the_scene_is_read() {
     assert_refused(code, &err, "no-such-scene.xml", &dir, &[]);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A constant emitter of radiance 3e38 around a small white square that
+/// emits 3e38 too: the camera sees sky (samples of 3e38, two of which
+/// overflowed an f32 sum) and the square, whose emission plus the sky it
+/// reflects overflows to ∞, which the path guard zeroes and counts.
+const OVERFLOWING: &str = r#"<scene version="3.0.0">
+	<sensor type="perspective">
+		<float name="fov" value="45"/>
+		<transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+		<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+	</sensor>
+	<shape type="rectangle">
+		<bsdf type="diffuse"><rgb name="reflectance" value="1, 1, 1"/></bsdf>
+		<emitter type="area"><rgb name="radiance" value="3e38, 3e38, 3e38"/></emitter>
+	</shape>
+	<emitter type="constant"><rgb name="radiance" value="3e38, 3e38, 3e38"/></emitter>
+</scene>
+"#;
+
+/// Guards that fire are reported without --stats-json: a `guards:` line
+/// on stdout naming the counters that fired, and a warning on stderr; a
+/// render where none fires prints neither. The image stays finite.
+#[test]
+fn guards_that_fire_are_reported_by_render_and_compare() {
+    let dir = work_dir("guards");
+    let scene = dir.join("overflow.xml");
+    std::fs::write(&scene, OVERFLOWING).unwrap();
+    let out = dir.join("o.exr");
+    let run = |scene: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+            .arg("render")
+            .arg(scene)
+            .args([
+                "--spp",
+                "2",
+                "--threads",
+                "1",
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap()
+    };
+    let r = run(&scene);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&r.stdout),
+        String::from_utf8_lossy(&r.stderr),
+    );
+    assert_eq!(r.status.code(), Some(0), "{stderr}");
+    let guards: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.starts_with("guards: "))
+        .collect();
+    assert_eq!(guards.len(), 1, "{stdout}");
+    assert!(guards[0].contains("image_nonfinite_samples "), "{stdout}");
+    // Only the counters that fired.
+    assert!(!guards[0].contains(" 0"), "{stdout}");
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("warning: ") && l.contains("guarded")),
+        "{stderr}"
+    );
+    let image = ltcguide::film::exr_io::read_image(&out).unwrap();
+    assert!(
+        image.pixels.iter().all(|p| p.is_finite()),
+        "{:?}",
+        image.pixels
+    );
+    assert!(
+        image.pixels.iter().any(|p| p.x > 1e38),
+        "the sky is in the image"
+    );
+    let r = run(&default_scene());
+    assert_eq!(r.status.code(), Some(0));
+    assert!(!String::from_utf8_lossy(&r.stdout).contains("guards:"));
+    assert!(!String::from_utf8_lossy(&r.stderr).contains("guarded"));
+
+    // compare notes them in its summary.
+    let reference = dir.join("ref.exr");
+    ltcguide::film::exr_io::write_rgb(&reference, 8, 8, &[glam::Vec3::ONE; 64]).unwrap();
+    let cmp = dir.join("cmp");
+    let r = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .arg("compare")
+        .arg(&scene)
+        .args(["--reference", reference.to_str().unwrap(), "--time", "0.2"])
+        .args(["--runs", "1", "--methods", "pt", "--threads", "1"])
+        .args(["--out", cmp.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(
+        r.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    let summary = std::fs::read_to_string(cmp.join("summary.md")).unwrap();
+    let section = summary.split("## Guards").nth(1).expect(&summary);
+    assert!(
+        section.contains("- pt, seed 1000: image_nonfinite_samples "),
+        "{summary}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `error` and `compare` refuse an image with a NaN, Inf or negative
+/// pixel (relMSE would be NaN): exit 2, one error line naming the file
+/// and the first bad pixel; compare before it renders anything.
+#[test]
+fn images_with_non_finite_or_negative_pixels_are_refused() {
+    use ltcguide::film::exr_io::write_rgb;
+    let dir = work_dir("badref");
+    let good = dir.join("good.exr");
+    write_rgb(&good, 8, 8, &[glam::Vec3::splat(0.5); 64]).unwrap();
+    let bin = env!("CARGO_BIN_EXE_ltcguide");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let r = Command::new(bin).args(args).output().unwrap();
+        let stdout = String::from_utf8_lossy(&r.stdout).into_owned();
+        (
+            r.status.code(),
+            stdout,
+            String::from_utf8_lossy(&r.stderr).into_owned(),
+        )
+    };
+    let (code, stdout, err) = run(&["error".as_ref(), good.as_ref(), good.as_ref()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(stdout.contains("relmse 0.000000e0"), "{stdout}");
+    for (name, value) in [("nan", f32::NAN), ("inf", f32::INFINITY), ("neg", -1.0)] {
+        let mut pixels = vec![glam::Vec3::splat(0.5); 64];
+        // Pixel (3, 1), and a later one: the first is named.
+        pixels[8 + 3].y = value;
+        pixels[40] = glam::Vec3::splat(value);
+        let bad = dir.join(format!("{name}.exr"));
+        write_rgb(&bad, 8, 8, &pixels).unwrap();
+        for args in [
+            [good.as_path(), bad.as_path()],
+            [bad.as_path(), good.as_path()],
+        ] {
+            let (code, _, err) = run(&["error".as_ref(), args[0].as_ref(), args[1].as_ref()]);
+            assert_eq!(code, Some(2), "{err}");
+            let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+            assert_eq!(errors.len(), 1, "{err}");
+            assert!(errors[0].contains(&format!("{name}.exr")), "{err}");
+            assert!(
+                errors[0].contains("(3, 1)") && errors[0].contains("2 pixels"),
+                "{err}"
+            );
+        }
+        let out = dir.join(format!("cmp-{name}"));
+        let (code, _, err) = run(&[
+            "compare".as_ref(),
+            default_scene().as_os_str(),
+            "--reference".as_ref(),
+            bad.as_os_str(),
+            "--time".as_ref(),
+            "1".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert_eq!(code, Some(2), "{err}");
+        let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(errors.len(), 1, "{err}");
+        assert!(
+            errors[0].contains(&format!("{name}.exr")) && errors[0].contains("(3, 1)"),
+            "{err}"
+        );
+        assert!(
+            !err.contains("compare: ") && !out.exists(),
+            "rendered first: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

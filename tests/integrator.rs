@@ -71,3 +71,126 @@ fn sphere_light_direct_lighting_matches_closed_form_with_and_without_nee() {
         }
     }
 }
+
+/// A BSDF that evaluates and samples to Inf (a diffuse floor whose
+/// reflectance was made infinite after loading) is zeroed by the BSDF layer,
+/// and the path loop counts every such value: NEE's evaluation and the
+/// BSDF sample each time. Nothing non-finite reaches the estimate.
+#[test]
+fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
+    use ltcguide::bsdf::MaterialKind;
+    use ltcguide::texture::Texture;
+    let mut scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let floor = scene
+        .materials
+        .iter_mut()
+        .find(|m| matches!(&m.kind, MaterialKind::Diffuse { reflectance: Texture::Constant(r) } if r.x == 0.5))
+        .unwrap();
+    floor.kind = MaterialKind::Diffuse {
+        reflectance: Texture::Constant(glam::Vec3::splat(f32::INFINITY)),
+    };
+    let settings = PathSettings {
+        nee: true,
+        max_depth: Some(3),
+        roulette: RouletteMode::Off,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    };
+    let mut rng = Rng::new(3, 0);
+    let mut counters = RenderCounters::default();
+    let mut scratch = PathScratch::default();
+    let paths = 100;
+    for _ in 0..paths {
+        let v = trace_path(
+            &scene,
+            &NoGuide,
+            &settings,
+            Vec3::new(0.0, 1.0, 0.0),
+            -Vec3::Y,
+            &mut rng,
+            &mut counters,
+            &mut scratch,
+            &mut (),
+            &mut (),
+            0.0,
+        );
+        assert_eq!(v, Vec3::ZERO);
+    }
+    assert_eq!(counters.nonfinite_samples, 0);
+    // Every path: its BSDF sample, and NEE's evaluation where the light
+    // sample was visible (most of them).
+    assert!(
+        counters.bsdf_nonfinite > paths && counters.bsdf_nonfinite <= 2 * paths,
+        "{counters:?}"
+    );
+}
+
+/// A guide whose adjoint estimate is NaN: at every vertex where ADRRS
+/// would play (from the second on), the path loop counts the estimate as
+/// invalid and plays classic roulette's rule instead of none at all.
+/// (The SD-tree guide had turned non-finite estimates into none,
+/// uncounted.)
+#[test]
+fn non_finite_adjoint_estimates_are_counted_by_the_path_loop() {
+    use ltcguide::guiding::descent::RadianceWeights;
+    use ltcguide::guiding::guide::{SdGuide, WeightModel};
+    use ltcguide::guiding::quadtree::QuadTree;
+    use ltcguide::guiding::sdtree::{SdTree, SdTreeConfig};
+    use ltcguide::integrator::guide::{Guide, VertexContext};
+
+    struct NanAdjoint;
+    impl WeightModel for NanAdjoint {
+        type Weights<'a> = RadianceWeights;
+        type Cache = ();
+        fn weights(&self, _ctx: &VertexContext, _cache: &mut ()) -> Option<RadianceWeights> {
+            Some(RadianceWeights)
+        }
+        fn adjoint(&self, _: &RadianceWeights, _: &VertexContext, _: f32, _: [f32; 4]) -> f32 {
+            f32::NAN
+        }
+        fn name(&self) -> &'static str {
+            "nan-adjoint"
+        }
+    }
+
+    let scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, SdTreeConfig::default());
+    tree.leaves_mut()[0].sampling = QuadTree::uniform(1.0);
+    // BSDF sampling only: the guide is there for its adjoint estimate.
+    let guide = SdGuide {
+        tree: &tree,
+        model: &NanAdjoint,
+        learning: false,
+        fixed_alpha: Some(1.0),
+    };
+    let settings = PathSettings {
+        nee: false,
+        max_depth: Some(3),
+        roulette: RouletteMode::Adrrs,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    };
+    let mut rng = Rng::new(5, 0);
+    let mut counters = RenderCounters::default();
+    let mut scratch = PathScratch::default();
+    let mut recorder = guide.new_recorder();
+    let paths = 2000;
+    for _ in 0..paths {
+        // Straight down under the sphere light: about 7 % of the floor's
+        // cosine samples hit the sphere, a second vertex.
+        trace_path(
+            &scene,
+            &guide,
+            &settings,
+            Vec3::new(0.7, 1.0, 0.3),
+            -Vec3::Y,
+            &mut rng,
+            &mut counters,
+            &mut scratch,
+            &mut recorder,
+            &mut (),
+            1.0,
+        );
+    }
+    let invalid = counters.adrrs.invalid_estimate;
+    assert!(invalid > 50 && invalid < 400, "{counters:?}");
+    assert_eq!(counters.adrrs.played + counters.adrrs.above_window, 0);
+}

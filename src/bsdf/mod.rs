@@ -260,7 +260,17 @@ impl Bsdf {
     /// path loop wants both. Never NaN, Inf or negative.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Spectrum, f32) {
+        self.eval_pdf_counted(wo, wi, &mut 0)
+    }
+
+    /// [`Self::eval_pdf`], adding 1 to `nonfinite` when the value or the
+    /// pdf was NaN or Inf (and zeroed).
+    #[inline]
+    pub fn eval_pdf_counted(&self, wo: Vec3, wi: Vec3, nonfinite: &mut u64) -> (Spectrum, f32) {
         let (f, p) = self.eval_pdf_unguarded(wo, wi);
+        if !(is_finite3(f) && p.is_finite()) {
+            *nonfinite += 1;
+        }
         (sanitize(f), if p.is_finite() { p.max(0.0) } else { 0.0 })
     }
 
@@ -297,6 +307,21 @@ impl Bsdf {
     /// model, a direction below the horizon, zero pdf).
     #[inline]
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        self.sample_counted(wo, u_lobe, u, &mut 0)
+    }
+
+    /// [`Self::sample`], adding 1 to `nonfinite` when the sample's pdf,
+    /// direction or weight was NaN or Inf (the sample is then rejected, or
+    /// its weight zeroed). A sample that is `None` for a reason of the
+    /// model's (nothing reflected) is not counted.
+    #[inline]
+    pub fn sample_counted(
+        &self,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        nonfinite: &mut u64,
+    ) -> Option<BsdfSample> {
         let mirrored = self.mirrored(wo);
         let wo = if mirrored { flip(wo) } else { wo };
         let s = match self.model {
@@ -316,6 +341,9 @@ impl Bsdf {
             BsdfModel::Dielectric { eta } => dielectric::sample_dielectric(eta, wo, u_lobe),
             BsdfModel::ThinDielectric { eta } => dielectric::sample_thin(eta, wo, u_lobe),
         }?;
+        if !(s.pdf.is_finite() && is_finite3(s.wi) && is_finite3(s.weight)) {
+            *nonfinite += 1;
+        }
         let weight = sanitize(s.weight);
         // `pdf > 0` is false for NaN too.
         let valid_pdf = s.pdf > 0.0 && s.pdf.is_finite();
@@ -371,5 +399,40 @@ fn plastic_model(eta: f32, rho: Spectrum, w: f32) -> plastic::Plastic {
         diffuse_reflectance: rho,
         specular_sampling_weight: w,
         fdr_int: fresnel::fresnel_diffuse_reflectance(1.0 / eta),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// NaN/Inf values and samples are zeroed or rejected and counted; a
+    /// clean BSDF's zero below the horizon, or a sample of nothing, is not.
+    #[test]
+    fn non_finite_values_and_samples_are_counted() {
+        let diffuse = |r: f32| Bsdf {
+            model: BsdfModel::Diffuse {
+                reflectance: Spectrum::splat(r),
+            },
+            two_sided: false,
+        };
+        let (wo, up, down) = (Vec3::Z, Vec3::new(0.6, 0.0, 0.8), -Vec3::Z);
+        let u = Vec2::splat(0.3);
+        let mut count = 0;
+        let (f, p) = diffuse(f32::NAN).eval_pdf_counted(wo, up, &mut count);
+        assert_eq!((f, count), (Spectrum::ZERO, 1));
+        assert!(p > 0.0);
+        let s = diffuse(f32::INFINITY).sample_counted(wo, 0.5, u, &mut count);
+        assert_eq!((s.unwrap().weight, count), (Spectrum::ZERO, 2));
+        diffuse(0.5).eval_pdf_counted(wo, Vec3::splat(f32::NAN), &mut count);
+        assert_eq!(count, 3);
+        let clean = diffuse(0.5);
+        assert_eq!(
+            clean.eval_pdf_counted(wo, down, &mut count).0,
+            Spectrum::ZERO
+        );
+        assert!(clean.sample_counted(down, 0.5, u, &mut count).is_none());
+        assert!(clean.sample_counted(wo, 0.5, u, &mut count).is_some());
+        assert_eq!(count, 3);
     }
 }

@@ -326,12 +326,15 @@ impl Light {
                     let d = q - p;
                     let dist2 = d.length_squared();
                     let dist = dist2.sqrt();
+                    if !(dist > 0.0) {
+                        return None; // p on the sphere, at the sampled point
+                    }
                     let wi = d / dist;
                     if (n * *sign).dot(-wi) <= 0.0 {
                         return None;
                     }
                     let cos = n.dot(wi).abs();
-                    return Some(aim_from_origin(
+                    return aim_from_origin(
                         LightSample {
                             origin: p,
                             wi,
@@ -341,7 +344,7 @@ impl Light {
                             prim: *prim,
                         },
                         origin,
-                    ));
+                    );
                 }
                 if *sign < 0.0 {
                     return None; // flipped sphere seen from outside: emits inward only
@@ -393,25 +396,29 @@ impl Light {
                 prim: u32::MAX,
             }),
         };
-        s.map(|s| aim_from_origin(s, origin))
+        s.and_then(|s| aim_from_origin(s, origin))
     }
 }
 
 /// Re-aims a sample taken from `s.origin` (the shading point) from the
-/// offset shadow-ray origin, at the sampled point itself.
-fn aim_from_origin(s: LightSample, origin: &impl Fn(Vec3) -> Vec3) -> LightSample {
+/// offset shadow-ray origin, at the sampled point itself; `None` when the
+/// offset origin is the sampled point (a direction would be 0/0).
+fn aim_from_origin(s: LightSample, origin: &impl Fn(Vec3) -> Vec3) -> Option<LightSample> {
     let o = origin(s.wi);
     if !s.dist.is_finite() {
-        return LightSample { origin: o, ..s };
+        return Some(LightSample { origin: o, ..s });
     }
     let to = s.origin + s.wi * s.dist - o;
     let dist = to.length();
-    LightSample {
+    if !(dist > 0.0) {
+        return None;
+    }
+    Some(LightSample {
         origin: o,
         wi: div3(to, dist),
         dist,
         ..s
-    }
+    })
 }
 
 /// Solid-angle pdf of cone sampling a sphere from outside, `None` inside.
@@ -423,4 +430,26 @@ fn sphere_cone_pdf(center: Vec3, radius: f32, p: Vec3) -> Option<f32> {
     let sin_max2 = radius * radius / dist_c2;
     let cos_max = (1.0 - sin_max2).max(0.0).sqrt();
     Some(1.0 / (2.0 * PI * (sin_max2 / (1.0 + cos_max))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An offset origin that lands on the sampled point leaves no direction
+    /// to aim along: the sample is dropped instead of carrying 0/0 = NaN.
+    #[test]
+    fn a_sample_aimed_from_its_own_point_is_dropped() {
+        let s = LightSample {
+            origin: Vec3::ZERO,
+            wi: Vec3::Z,
+            dist: 1.0,
+            radiance: Spectrum::ONE,
+            pdf: 1.0,
+            prim: 0,
+        };
+        assert!(aim_from_origin(s, &|_| Vec3::Z).is_none());
+        let moved = aim_from_origin(s, &|_| Vec3::new(0.0, 0.0, 0.5)).unwrap();
+        assert_eq!((moved.wi, moved.dist), (Vec3::Z, 0.5));
+    }
 }

@@ -113,6 +113,11 @@ pub fn run_compare(
             reference.width, reference.height, scene.camera.width, scene.camera.height
         ));
     }
+    if let Some((x, y, p, count)) = reference.invalid_pixels() {
+        return Err(format!(
+            "the reference has {count} pixels with NaN, Inf or negative values, the first at ({x}, {y}): {p}"
+        ));
+    }
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
     }
@@ -120,6 +125,7 @@ pub fn run_compare(
         .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
     let mut rows = Vec::new();
     let mut notes = Vec::new();
+    let mut guard_notes = Vec::new();
     // Runs outer, methods inner: a shared machine's load drifts over a
     // study, and interleaving makes every method's runs meet the same drift
     // instead of one method taking the quiet start and another the busy end.
@@ -181,6 +187,11 @@ pub fn run_compare(
                 mae: mae(&result.image, reference)?,
                 relmse: relmse(&result.image, reference)?,
             });
+            let guards = &result.stats.guards;
+            if guards.total() > 0 {
+                let seed = result.stats.seed;
+                guard_notes.push(format!("{name}, seed {seed}: {}", guards.describe()));
+            }
             if run == 0 {
                 write_final_images(&opts.out_dir, &name, &result.image, reference)?;
                 if let Some(plan) = &result.stats.plan {
@@ -201,7 +212,7 @@ pub fn run_compare(
         &curves,
     )?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
-    let summary = summary_markdown(scene, opts, &rows, &curves, &notes);
+    let summary = summary_markdown(scene, opts, &rows, &curves, &notes, &guard_notes);
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
     Ok(CompareOutcome {
         rows,
@@ -294,6 +305,7 @@ fn summary_markdown(
     rows: &[CurveRow],
     curves: &[MeanCurve],
     notes: &[String],
+    guard_notes: &[String],
 ) -> String {
     let mut s = String::new();
     let threads = if opts.side_by_side {
@@ -416,6 +428,16 @@ fn summary_markdown(
     if !notes.is_empty() {
         let _ = writeln!(s, "\n## Per-scene plan\n");
         for n in notes {
+            let _ = writeln!(s, "- {n}");
+        }
+    }
+    if !guard_notes.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Guards\n\nThese runs zeroed, rejected or left out NaN/Inf or degenerate \
+             values (counts by guard, as in `render --stats-json`); their errors may be biased.\n"
+        );
+        for n in guard_notes {
             let _ = writeln!(s, "- {n}");
         }
     }

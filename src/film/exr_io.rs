@@ -73,3 +73,19 @@ pub fn read_image(path: &Path) -> Result<super::image::Image, String> {
         pixels: img.pixels,
     })
 }
+
+/// Reads an EXR that an error metric will compare: refused, naming the
+/// file and its first bad pixel, if any pixel is NaN, Inf or negative.
+pub fn read_valid_image(path: &Path) -> Result<super::image::Image, String> {
+    let img = read_image(path)?;
+    match img.invalid_pixels() {
+        None => Ok(img),
+        Some((x, y, p, count)) => Err(format!(
+            "'{}' has {count} pixels with NaN, Inf or negative values, the first at ({x}, {y}): ({}, {}, {})",
+            path.display(),
+            p.x,
+            p.y,
+            p.z
+        )),
+    }
+}

@@ -31,17 +31,21 @@
 //!   earlier iteration's per-sample variance is no lower than the last's in
 //!   truth. Each iteration's per-sample variance is therefore floored at
 //!   the one measured on the film with the most samples.
+//!
+//! Everything is computed in f64 from the films' f64 sums, so a finite
+//! sample can never make a variance infinite; an iteration whose sums are
+//! not finite is left out and counted ([`combine_counting`]).
 
 use crate::film::image::{Film, Image};
-use crate::math::Spectrum;
+use glam::DVec3;
 
-/// Per-pixel mean of all the films' samples.
-pub(super) fn pooled_mean(films: &[&Film]) -> Vec<Spectrum> {
+/// The pooled per-pixel mean of several films (all samples of all films).
+pub(super) fn pooled_mean(films: &[&Film]) -> Vec<DVec3> {
     let n: u32 = films.iter().map(|f| f.spp).sum();
-    let inv = if n > 0 { 1.0 / n as f32 } else { 0.0 };
+    let inv = if n > 0 { 1.0 / n as f64 } else { 0.0 };
     let len = films.first().map_or(0, |f| f.sum.len());
     (0..len)
-        .map(|i| films.iter().map(|f| f.sum[i]).sum::<Spectrum>() * inv)
+        .map(|i| films.iter().map(|f| f.sum[i]).sum::<DVec3>() * inv)
         .collect()
 }
 
@@ -50,7 +54,7 @@ pub(super) fn pooled_mean(films: &[&Film]) -> Vec<Spectrum> {
 /// about the pooled mean of all iterations rather than the film's own mean
 /// keeps it meaningful for 1- and 2-spp iterations, whose own sample
 /// variance is zero or nearly so in most pixels of a hard scene.
-fn sample_variance_about(film: &Film, mu: &[Spectrum]) -> Vec<f32> {
+fn sample_variance_about(film: &Film, mu: &[DVec3]) -> Vec<f64> {
     let n = film.spp.max(1) as f64;
     film.sum
         .iter()
@@ -59,16 +63,33 @@ fn sample_variance_about(film: &Film, mu: &[Spectrum]) -> Vec<f32> {
         .map(|((s, q), m)| {
             let mut v = 0.0f64;
             for c in 0..3 {
-                let (s, q, m) = (s[c] as f64, q[c] as f64, m[c] as f64);
-                v += ((q - 2.0 * m * s) / n + m * m).max(0.0);
+                let d = (q[c] - 2.0 * m[c] * s[c]) / n + m[c] * m[c];
+                // Not `max`: it would turn a NaN into a silent 0.
+                v += if d < 0.0 { 0.0 } else { d };
             }
-            (v / 3.0) as f32
+            v / 3.0
         })
         .collect()
 }
 
 /// Mean over `pixels` of the variance of the film's pixel means, from the
-/// per-pixel sample variances.
+/// per-pixel single-sample variances; ∞ if any of them is not finite.
+fn mean_variance_of_means(
+    sample_var: &[f64],
+    spp: u32,
+    pixels: impl Iterator<Item = usize>,
+) -> f64 {
+    let (mut total, mut count) = (0.0f64, 0usize);
+    for i in pixels {
+        let v = sample_var[i];
+        total += if v.is_finite() { v } else { f64::INFINITY };
+        count += 1;
+    }
+    total / count.max(1) as f64 / spp.max(1) as f64
+}
+
+/// Mean over pixels of the variance of the film's pixel means, and the
+/// per-pixel single-sample variance it averages.
 ///
 /// Deliberately unclamped. A per-pixel clamp of the sample variance s² at
 /// some C makes the estimate depend on the sample count: one firefly x in n
@@ -78,32 +99,21 @@ fn sample_variance_about(film: &Film, mu: &[Spectrum]) -> Vec<f32> {
 /// which stopped training after 8 spp and gave noisy early iterations too
 /// much weight. Unclamped, the mean over all pixels is a consistent estimate
 /// of the mean per-sample variance at any n, fireflies included, which is
-/// what relMSE pays for. A non-finite pixel variance makes the whole
-/// iteration unusable (∞).
-fn mean_variance_of_means(
-    sample_var: &[f32],
-    spp: u32,
-    pixels: impl Iterator<Item = usize>,
-) -> f64 {
-    let (mut total, mut count) = (0.0f64, 0usize);
-    for i in pixels {
-        let v = sample_var[i];
-        total += if v.is_finite() {
-            v as f64
-        } else {
-            f64::INFINITY
-        };
-        count += 1;
-    }
-    total / count.max(1) as f64 / spp.max(1) as f64
-}
-
-/// The variance of `film`'s pixel means, averaged over the image, with the
-/// per-pixel sample variances it comes from.
-pub(super) fn iteration_variance(film: &Film, mu: &[Spectrum]) -> (f64, Vec<f32>) {
+/// what relMSE pays for. A non-finite pixel variance (only from a film
+/// whose sums are non-finite: finite f32 samples cannot overflow the f64
+/// sums) makes the whole iteration unusable (∞), and [`combine_counting`]
+/// counts it.
+pub(super) fn iteration_variance(film: &Film, mu: &[DVec3]) -> (f64, Vec<f64>) {
     let sample_var = sample_variance_about(film, mu);
     let mean = mean_variance_of_means(&sample_var, film.spp, 0..sample_var.len());
     (mean, sample_var)
+}
+
+/// Efficiency 1 / (variance per sample × seconds per sample) of `film`
+/// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
+/// it is 1 / (variance of the film's mean × seconds).
+pub(super) fn efficiency(film: &Film, seconds: f64, mu: &[DVec3]) -> f64 {
+    1.0 / (iteration_variance(film, mu).0 * seconds)
 }
 
 /// Checkerboard colour of pixel `i` of an image `width` wide.
@@ -111,13 +121,15 @@ fn colour(i: usize, width: usize) -> usize {
     (i % width.max(1) + i / width.max(1)) & 1
 }
 
-/// Inverse-variance weights of the films, normalised, from their mean
-/// variances; by sample count where no variance is measurable.
-fn normalised_weights(variances: &[f64], films: &[&Film]) -> Vec<f64> {
+/// Inverse-variance weights of the usable films, normalised, from their
+/// mean variances; by sample count where no variance is measurable; `None`
+/// when no film is usable.
+fn normalised_weights(variances: &[f64], films: &[&Film], usable: &[bool]) -> Option<Vec<f64>> {
     let mut weights: Vec<f64> = variances
         .iter()
-        .map(|&v| {
-            if v.is_finite() && v > 0.0 {
+        .zip(usable)
+        .map(|(&v, &u)| {
+            if u && v.is_finite() && v > 0.0 {
                 1.0 / v
             } else {
                 0.0
@@ -125,34 +137,62 @@ fn normalised_weights(variances: &[f64], films: &[&Film]) -> Vec<f64> {
         })
         .collect();
     if weights.iter().all(|&w| w == 0.0) {
-        // Noise-free (or unmeasurable): weigh by sample count.
-        weights = films.iter().map(|f| f.spp as f64).collect();
+        // Noise-free (or unmeasurable): weigh the usable ones by sample count.
+        weights = films
+            .iter()
+            .zip(usable)
+            .map(|(f, &u)| if u { f.spp as f64 } else { 0.0 })
+            .collect();
     }
     let total: f64 = weights.iter().sum();
-    weights.iter().map(|w| w / total).collect()
+    (total > 0.0).then(|| weights.iter().map(|w| w / total).collect())
 }
 
-/// Inverse-variance combination of iteration images, each checkerboard
-/// colour's pixels with the weights measured on the other colour's; with
-/// the per-pixel variance of the combination and the films' weights
-/// (averaged over the pixels, so that they sum to 1).
+/// Inverse-variance combination of iteration images (weights 1/mean
+/// variance, DESIGN.md §5), with the per-pixel variance of the combination
+/// and the films' weights (averaged over the pixels, so that they sum to 1).
 pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
+    combine_counting(films, &mut 0)
+}
+
+/// [`combine`], adding to `dropped` the films left out for a non-finite
+/// variance. Each checkerboard colour's pixels take the weights measured on
+/// the other colour's (on their own in an image of one pixel), and no
+/// film's per-sample variance is taken below that of the usable film with
+/// the most samples (see the module's notes).
+pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Vec<f32>, Vec<f64>)> {
     let first = films.first()?;
     let films: Vec<&Film> = films.iter().copied().filter(|f| f.spp > 0).collect();
     if films.is_empty() {
         return None;
     }
+    // A film with non-finite sums would also spoil the pooled mean, and
+    // with it every other film's variance.
+    let finite_sums = |f: &Film| f.sum.iter().chain(&f.sum_sq).all(|v| v.is_finite());
+    let trusted: Vec<&Film> = films.iter().copied().filter(|f| finite_sums(f)).collect();
+    if trusted.is_empty() {
+        *dropped += films.len() as u64;
+        return None;
+    }
     let (width, n) = (first.width, first.width * first.height);
-    let mu = pooled_mean(&films);
-    let sample_vars: Vec<Vec<f32>> = films
+    let mu = pooled_mean(&trusted);
+    let sample_vars: Vec<Vec<f64>> = films
         .iter()
         .map(|f| sample_variance_about(f, &mu))
         .collect();
-    // The film with the most samples measures its variance most reliably
-    // (`max_by_key` keeps the last of equals: the latest iteration).
-    let reference = (0..films.len()).max_by_key(|&k| films[k].spp).unwrap_or(0);
-    // weights[c]: measured on colour c, applied to the other colour.
-    let weights: [Vec<f64>; 2] = std::array::from_fn(|c| {
+    let usable: Vec<bool> = films
+        .iter()
+        .zip(&sample_vars)
+        .map(|(f, sv)| mean_variance_of_means(sv, f.spp, 0..n).is_finite())
+        .collect();
+    *dropped += usable.iter().filter(|&&u| !u).count() as u64;
+    // The usable film with the most samples measures its variance most
+    // reliably (`max_by_key` keeps the last of equals: the latest iteration).
+    let reference = (0..films.len())
+        .filter(|&k| usable[k])
+        .max_by_key(|&k| films[k].spp);
+    let has_colour = |c: usize| (0..n).any(|i| colour(i, width) == c);
+    let measured_on = |c: usize| -> Option<Vec<f64>> {
         let per_sample: Vec<f64> = films
             .iter()
             .zip(&sample_vars)
@@ -161,21 +201,27 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
                 mean_variance_of_means(sv, f.spp, on_colour) * f.spp as f64
             })
             .collect();
-        let floor = per_sample[reference];
+        let floor = reference.map_or(0.0, |r| per_sample[r]);
         let variances: Vec<f64> = per_sample
             .iter()
             .zip(&films)
             .map(|(&v, f)| v.max(floor) / f.spp as f64)
             .collect();
-        normalised_weights(&variances, &films)
-    });
-    let mut pixels = vec![Spectrum::ZERO; n];
-    let mut variance = vec![0f32; n];
+        normalised_weights(&variances, &films, &usable)
+    };
+    // applied[c]: the weights that combine colour c's pixels.
+    let applied: [Vec<f64>; 2] = if has_colour(1) {
+        [measured_on(1)?, measured_on(0)?]
+    } else {
+        let own = measured_on(0)?;
+        [own.clone(), own]
+    };
+    let mut pixels = vec![DVec3::ZERO; n];
+    let mut variance = vec![0f64; n];
     for (k, (f, sample_var)) in films.iter().zip(&sample_vars).enumerate() {
-        let a = [weights[1][k] as f32, weights[0][k] as f32];
-        let inv_spp = 1.0 / f.spp as f32;
+        let inv_spp = 1.0 / f.spp as f64;
         for i in 0..n {
-            let a = a[colour(i, width)];
+            let a = applied[colour(i, width)][k];
             if a == 0.0 {
                 continue;
             }
@@ -185,17 +231,16 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
     }
     let share = |c: usize| (0..n).filter(|&i| colour(i, width) == c).count() as f64 / n as f64;
     let (share0, share1) = (share(0), share(1));
-    // Colour 0's pixels take colour 1's weights, and the other way round.
     let mean_weights = (0..films.len())
-        .map(|k| share0 * weights[1][k] + share1 * weights[0][k])
+        .map(|k| share0 * applied[0][k] + share1 * applied[1][k])
         .collect();
     Some((
         Image {
             width: first.width,
             height: first.height,
-            pixels,
+            pixels: pixels.iter().map(|p| p.as_vec3()).collect(),
         },
-        variance,
+        variance.iter().map(|&v| v as f32).collect(),
         mean_weights,
     ))
 }
@@ -203,7 +248,16 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Spectrum;
     use crate::sampling::Rng;
+
+    fn film(samples: &[f32]) -> Film {
+        let mut f = Film::new(1, 1);
+        for &x in samples {
+            f.add_pass(&[Spectrum::splat(x)]);
+        }
+        f
+    }
 
     /// Per-sample variance measured from `n`-spp films of a heavy-tailed
     /// estimator (1 almost always, 1000 with probability 1e-3).
@@ -218,7 +272,7 @@ mod tests {
             film.add_pass(&pass);
         }
         let nf = n as f64;
-        iteration_variance(&film, &film.mean()).0 * nf / (nf - 1.0) * nf
+        iteration_variance(&film, &pooled_mean(&[&film])).0 * nf / (nf - 1.0) * nf
     }
 
     #[test]
@@ -229,6 +283,41 @@ mod tests {
             let v = measured_per_sample_variance(n);
             assert!((v / truth - 1.0).abs() < 0.25, "n = {n}: {v} vs {truth}");
         }
+    }
+
+    /// A huge finite sample (1e20: its square overflows f32) leaves its
+    /// iteration a finite variance and a weight; with f32 sums of squares
+    /// the variance was ∞ and the iteration silently got weight 0.
+    #[test]
+    fn a_huge_finite_sample_keeps_its_iteration_in_the_combination() {
+        // 10 samples: the pooled mean 1e19 keeps A's spread about it (1e38)
+        // within f32, while B's sum of squares (1e40) is not.
+        let (a, b) = (film(&[1.0; 8]), film(&[1e20, 0.0]));
+        let mut dropped = 0;
+        let (image, variance, weights) = combine_counting(&[&a, &b], &mut dropped).unwrap();
+        assert!(weights[1] > 0.0 && weights[0] > weights[1], "{weights:?}");
+        assert!(crate::math::is_finite3(image.pixels[0]), "{image:?}");
+        assert!(variance[0].is_finite(), "{variance:?}");
+        assert_eq!(dropped, 0);
+    }
+
+    /// An iteration whose sums are not finite is left out of the image and
+    /// counted, including where the others would be weighed by spp.
+    #[test]
+    fn an_iteration_with_non_finite_variance_is_dropped_and_counted() {
+        let (a, mut b, c) = (film(&[1.0, 3.0]), film(&[2.0, 2.0]), film(&[2.0, 2.0]));
+        b.sum[0] = DVec3::splat(f64::NAN);
+        b.sum_sq[0] = DVec3::splat(f64::INFINITY);
+        let mut dropped = 0;
+        let (image, _, weights) = combine_counting(&[&a, &b], &mut dropped).unwrap();
+        assert_eq!((dropped, weights[1]), (1, 0.0));
+        assert_eq!(image.pixels[0], Spectrum::splat(2.0));
+        // C alone has zero variance about the pooled mean: spp weights.
+        let (image, _, weights) = combine_counting(&[&c, &b], &mut dropped).unwrap();
+        assert_eq!((dropped, weights[1]), (2, 0.0));
+        assert_eq!(image.pixels[0], Spectrum::splat(2.0));
+        assert!(combine_counting(&[&b], &mut dropped).is_none());
+        assert_eq!(dropped, 3);
     }
 
     /// Films of iterations of 1, 2, 4, … spp of an estimator that is 0 almost
@@ -262,11 +351,11 @@ mod tests {
         let self_weighted = |films: &[&Film]| -> f64 {
             let mu = pooled_mean(films);
             let v: Vec<f64> = films.iter().map(|f| iteration_variance(f, &mu).0).collect();
-            let wts = normalised_weights(&v, films);
+            let wts = normalised_weights(&v, films, &vec![true; films.len()]).unwrap();
             let mut total = 0.0;
             for (f, wt) in films.iter().zip(&wts) {
-                let mean: f64 = f.sum.iter().map(|s| s[0] as f64).sum::<f64>()
-                    / (f.spp as f64 * (w * h) as f64);
+                let mean: f64 =
+                    f.sum.iter().map(|s| s.x).sum::<f64>() / (f.spp as f64 * (w * h) as f64);
                 total += wt * mean;
             }
             total

@@ -371,9 +371,22 @@ pub fn pdf_direction<W: ChildWeights>(tree: &QuadTree, weights: &mut W, d: Vec3)
 }
 
 /// Σ_k w_k at the root alone (one weight call), for callers that need the
-/// adjoint estimate without sampling.
+/// adjoint estimate without sampling. 0 when the weights vanish (nothing
+/// to guide towards); NaN or ∞ when a weight or their total is not finite,
+/// which the descent would silently replace, so that the caller can count
+/// it.
 pub fn root_total<W: ChildWeights>(tree: &QuadTree, weights: &mut W) -> f32 {
-    resolve(weights, Cell::ROOT, tree.nodes()[0].sums).map_or(0.0, |r| r.2)
+    let w = weights.child_weights(Cell::ROOT, tree.nodes()[0].sums);
+    if let Some((_, total)) = sanitize(w) {
+        return total;
+    }
+    if w.iter().any(|x| !x.is_finite()) {
+        return f32::NAN;
+    }
+    let w = w.map(|x| if x > 0.0 { x } else { 0.0 });
+    let total = (w[0] + w[1]) + (w[2] + w[3]);
+    // Not a positive finite total: zero, or one that overflowed.
+    if total.is_finite() { 0.0 } else { total }
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use super::quadtree::QuadTree;
 use super::record::{Record, RecordBuffer};
 use super::sdtree::SdTree;
 use crate::integrator::guide::{Guide, GuideVertex, PathVertex, VertexCache, VertexContext};
+use crate::integrator::stats::RenderCounters;
 use crate::math::{Frame, luminance};
 use glam::{Vec2, Vec3};
 
@@ -112,7 +113,8 @@ pub struct SdVertex<'a, W: ChildWeights> {
     tree: &'a QuadTree,
     weights: W,
     alpha: f32,
-    adjoint: f32,
+    /// Computed where roulette reads it; possibly non-finite or zero.
+    adjoint: Option<f32>,
 }
 
 impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
@@ -129,7 +131,7 @@ impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
     }
 
     fn adjoint_estimate(&self) -> Option<f32> {
-        (self.adjoint > 0.0 && self.adjoint.is_finite()).then_some(self.adjoint)
+        self.adjoint
     }
 }
 
@@ -160,6 +162,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         ctx: &VertexContext,
         id: u32,
         cache: &'a mut M::Cache,
+        counters: &mut RenderCounters,
     ) -> Option<Self::Vertex<'a>> {
         let leaf = self.tree.leaf(id);
         if leaf.sampling.node_count() == 0 {
@@ -171,14 +174,14 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         // incident radiance integral.
         let root_total = descent::root_total(&leaf.sampling, &mut weights);
         if !(root_total > 0.0 && root_total.is_finite()) {
+            // Zero: nothing to guide towards here, not an error.
+            counters.guide_root_nonfinite += !root_total.is_finite() as u64;
             return None;
         }
-        let adjoint = if ctx.needs_adjoint {
+        let adjoint = ctx.needs_adjoint.then(|| {
             let root_radiance = leaf.sampling.nodes()[0].sums;
             self.model.adjoint(&weights, ctx, root_total, root_radiance)
-        } else {
-            0.0
-        };
+        });
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,
@@ -235,6 +238,84 @@ fn record_seed(pass: u64, v: &PathVertex) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::{Bsdf, BsdfModel};
+    use crate::guiding::sdtree::SdTreeConfig;
+
+    /// Radiance weights with an adjoint that is always NaN.
+    struct NanAdjoint;
+
+    impl WeightModel for NanAdjoint {
+        type Weights<'a> = RadianceWeights;
+        type Cache = ();
+        fn weights(&self, _ctx: &VertexContext, _cache: &mut ()) -> Option<RadianceWeights> {
+            Some(RadianceWeights)
+        }
+        fn adjoint(&self, _: &RadianceWeights, _: &VertexContext, _: f32, _: [f32; 4]) -> f32 {
+            f32::NAN
+        }
+        fn name(&self) -> &'static str {
+            "nan-adjoint"
+        }
+    }
+
+    /// A vertex of a one-leaf tree whose root holds `root` in each cell.
+    fn vertex_with<M: WeightModel<Cache = ()>>(
+        model: &M,
+        root: f32,
+        counters: &mut RenderCounters,
+    ) -> Option<Option<f32>> {
+        let mut tree = SdTree::new(Vec3::ZERO, Vec3::ONE, SdTreeConfig::default());
+        tree.leaves_mut()[0].sampling = QuadTree::uniform(root);
+        let guide = SdGuide {
+            tree: &tree,
+            model,
+            learning: false,
+            fixed_alpha: None,
+        };
+        let bsdf = Bsdf {
+            model: BsdfModel::Diffuse {
+                reflectance: Vec3::splat(0.5),
+            },
+            two_sided: false,
+        };
+        let frame = Frame::from_normal(Vec3::Z);
+        let ctx = VertexContext {
+            p: Vec3::splat(0.5),
+            ng: Vec3::Z,
+            frame: &frame,
+            wo_local: Vec3::Z,
+            bsdf: &bsdf,
+            needs_adjoint: true,
+            vertex_index: 1,
+        };
+        let at = guide.locate(ctx.p);
+        guide
+            .vertex(&ctx, at, &mut (), counters)
+            .map(|v| v.adjoint_estimate())
+    }
+
+    /// Root weights whose total overflows (4 × f32::MAX) disable the
+    /// vertex and are counted; a root without light disables it silently.
+    #[test]
+    fn a_non_finite_root_total_is_counted() {
+        let mut counters = RenderCounters::default();
+        assert!(vertex_with(&RadianceModel, f32::MAX, &mut counters).is_none());
+        assert_eq!(counters.guide_root_nonfinite, 1);
+        assert!(vertex_with(&RadianceModel, 0.0, &mut counters).is_none());
+        assert_eq!(counters.guide_root_nonfinite, 1);
+        let adjoint = vertex_with(&RadianceModel, 1.0, &mut counters).unwrap();
+        assert!(adjoint.unwrap() > 0.0);
+        assert_eq!(counters.guide_root_nonfinite, 1);
+    }
+
+    /// A non-finite adjoint reaches the roulette, which counts it; it was
+    /// turned into "no estimate" here, uncounted.
+    #[test]
+    fn a_non_finite_adjoint_is_passed_on() {
+        let mut counters = RenderCounters::default();
+        let adjoint = vertex_with(&NanAdjoint, 1.0, &mut counters).unwrap();
+        assert!(adjoint.unwrap().is_nan());
+    }
 
     /// Uniform radiance L over the upper half of the sphere (root cells 1
     /// and 3) and none below: a surface facing up reflects albedo × L, one

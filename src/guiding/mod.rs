@@ -10,8 +10,8 @@
 //! - [`record`]: per-thread record buffers and their deterministic merge;
 //! - [`adam`]: the learned BSDF-sampling fraction;
 //! - [`adrrs`]: adjoint-driven Russian roulette;
-//! - [`schedule`]: the training schedule and the inverse-variance
-//!   combination of iterations;
+//! - [`schedule`]: the training schedule;
+//! - [`combine`]: the inverse-variance combination of iterations;
 //! - [`trial`]: the plan's measured choice between the guide's weights and
 //!   path tracing;
 //! - [`fallback_image`]: what a run that falls back to path tracing images.

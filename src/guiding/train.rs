@@ -5,7 +5,7 @@
 //! A run whose strategy trial falls back to path tracing images path
 //! tracing's passes alone (`super::fallback_image`).
 
-use super::combine::{combine, iteration_variance};
+use super::combine::{combine, combine_counting, iteration_variance, pooled_mean};
 use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
 use super::record::{RecordStats, passes_within_record_budget, record_pass};
@@ -61,6 +61,9 @@ pub struct GuidingStats {
     pub records_rejected_zero_pdf: u64,
     pub adam_steps: u64,
     pub adam_rejected: u64,
+    /// Iterations left out of the final image because their variance was
+    /// not finite (see [`combine_counting`]).
+    pub iterations_dropped_nonfinite_variance: u64,
     /// Non-empty when guiding was dropped because it did not pay.
     pub fallback: String,
     /// Guided passes rendered before a fallback and left out of the image.
@@ -97,13 +100,6 @@ fn image_films<'a>(
     }
 }
 
-/// Efficiency 1 / (variance per sample × seconds per sample) of `film`
-/// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
-/// it is 1 / (variance of the film's mean × seconds).
-pub(super) fn efficiency(film: &Film, seconds: f64, mu: &[Spectrum]) -> f64 {
-    1.0 / (iteration_variance(film, mu).0 * seconds)
-}
-
 /// Renders with an SD-tree guide whose child weights come from `model`.
 pub fn render_guided<M: WeightModel>(
     scene: &Scene,
@@ -128,7 +124,7 @@ pub fn render_guided<M: WeightModel>(
     let mut films: Vec<Film> = Vec::new();
     // The last film's per-pixel spread about its own mean (empty below 4
     // spp), kept from its `mean_variance` for `last_iteration_variance`.
-    let mut last_pixel_variance: Vec<f32> = Vec::new();
+    let mut last_pixel_variance: Vec<f64> = Vec::new();
     let mut summaries: Vec<IterationSummary> = Vec::new();
     let mut counters = RenderCounters::default();
     let mut records = RecordStats::default();
@@ -326,7 +322,7 @@ pub fn render_guided<M: WeightModel>(
         // that iterations of different lengths compare without bias.
         let mean_variance = if film.spp >= 4 {
             let n = film.spp as f64;
-            let (mean, per_pixel) = iteration_variance(&film, &film.mean());
+            let (mean, per_pixel) = iteration_variance(&film, &pooled_mean(&[&film]));
             last_pixel_variance = per_pixel;
             mean * n / (n - 1.0)
         } else {
@@ -358,7 +354,9 @@ pub fn render_guided<M: WeightModel>(
         weights_check = t.unfinished_note(model.name(), cheaper_name);
     }
     let refs = image_films(&films, None, &fallback_image);
-    let (image, variance, weights) = combine(&refs).unwrap_or_else(|| {
+    let mut iterations_dropped = 0;
+    let combined = combine_counting(&refs, &mut iterations_dropped);
+    let (image, variance, weights) = combined.unwrap_or_else(|| {
         (
             Image {
                 width: w,
@@ -392,6 +390,7 @@ pub fn render_guided<M: WeightModel>(
         records_rejected_zero_pdf: records.rejected_zero_pdf,
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
+        iterations_dropped_nonfinite_variance: iterations_dropped,
         fallback,
         left_out_spp,
         weights_check,
@@ -399,10 +398,10 @@ pub fn render_guided<M: WeightModel>(
     // The same (n − 1)/n correction as the last iteration's mean_variance.
     let last_iteration_variance = match films.last() {
         Some(f) if !last_pixel_variance.is_empty() => {
-            let n = f.spp as f32;
+            let n = f.spp as f64;
             last_pixel_variance
                 .into_iter()
-                .map(|v| v * n / (n - 1.0))
+                .map(|v| (v * n / (n - 1.0)) as f32)
                 .collect()
         }
         _ => Vec::new(),

@@ -27,8 +27,7 @@
 //! pay the path loop's recording, not the tree's update (as in the final
 //! iteration they will render), so the comparison leans towards guiding.
 
-use super::combine::pooled_mean;
-use super::train::efficiency;
+use super::combine::{efficiency, pooled_mean};
 use crate::film::image::Film;
 
 /// What renders a trial call (and, once decided, the rest of the run).

@@ -30,7 +30,9 @@ pub trait GuideVertex {
     /// Solid-angle pdf under the guide of a world direction.
     fn pdf(&mut self, dir: Vec3) -> f32;
     /// The guide's estimate of the radiance reflected towards wo (for
-    /// adjoint-driven Russian roulette), if it has one.
+    /// adjoint-driven Russian roulette), if it computed one: as computed,
+    /// zero or non-finite included, so that the roulette can count the
+    /// unusable ones.
     fn adjoint_estimate(&self) -> Option<f32> {
         None
     }
@@ -99,12 +101,14 @@ pub trait Guide: Sync {
 
     /// The sampling distribution at a non-delta vertex located at `at` (by
     /// [`Self::locate`] of `ctx.p`); `None` means BSDF sampling only. The
-    /// vertex may keep what it computes in `cache`.
+    /// vertex may keep what it computes in `cache`, and counts any guard
+    /// that fires in `counters`.
     fn vertex<'a>(
         &'a self,
         ctx: &VertexContext,
         at: Self::Location,
         cache: &'a mut Self::Cache,
+        counters: &mut crate::integrator::stats::RenderCounters,
     ) -> Option<Self::Vertex<'a>>;
 
     fn new_recorder(&self) -> Self::Recorder;
@@ -141,7 +145,13 @@ impl Guide for NoGuide {
 
     fn locate(&self, _p: Vec3) {}
 
-    fn vertex<'a>(&'a self, _ctx: &VertexContext, _at: (), _cache: &'a mut ()) -> Option<Never> {
+    fn vertex<'a>(
+        &'a self,
+        _ctx: &VertexContext,
+        _at: (),
+        _cache: &'a mut (),
+        _counters: &mut crate::integrator::stats::RenderCounters,
+    ) -> Option<Never> {
         None
     }
 

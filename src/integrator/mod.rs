@@ -119,9 +119,7 @@ pub fn render_passes_into<G: Guide>(
                             cache,
                             pixel_estimates.map_or(0.0, |e| e[index]),
                         );
-                        // What `Film::add_pass` does for this pixel.
-                        *s += v;
-                        *q += v * v;
+                        crate::film::image::add_sample(s, q, v);
                     }
                 }
                 // The block's pixels share the cache in their fixed order;

@@ -217,6 +217,7 @@ pub fn trace_path<G: Guide>(
                 },
                 location,
                 cache,
+                counters,
             );
         }
         // Adjoint-driven roulette (Vorba & Křivánek 2016): the expected
@@ -225,7 +226,7 @@ pub fn trace_path<G: Guide>(
         let mut adrrs_applied = false;
         if adrrs_here
             && let Some(adjoint) = guide_vertex.as_ref().and_then(|g| g.adjoint_estimate())
-            && pixel_estimate > 0.0
+            && crate::guiding::adrrs::usable_estimates(pixel_estimate, adjoint, &mut counters.adrrs)
         {
             adrrs_applied = true;
             let t = crate::math::luminance(throughput);
@@ -248,7 +249,7 @@ pub fn trace_path<G: Guide>(
                 early_nee.unwrap_or_else(|| nee_sample(scene, &it, wo, rng, counters, false));
             if let Some(NeeSample { ls, wi, visible }) = sample {
                 // One evaluation for both: rough plastic computes them together.
-                let (f, pdf_bsdf) = bsdf.eval_pdf(wo, wi);
+                let (f, pdf_bsdf) = bsdf.eval_pdf_counted(wo, wi, &mut counters.bsdf_nonfinite);
                 if f != Spectrum::ZERO
                     && visible.unwrap_or_else(|| shadow_ray_clear(scene, &ls, counters))
                 {
@@ -283,7 +284,7 @@ pub fn trace_path<G: Guide>(
                 };
                 let wi = it.frame.to_local(dir);
                 // One evaluation for both: rough plastic computes them together.
-                let (f, pb) = bsdf.eval_pdf(wo, wi);
+                let (f, pb) = bsdf.eval_pdf_counted(wo, wi, &mut counters.bsdf_nonfinite);
                 let p = a * pb + (1.0 - a) * pg;
                 if !(p > 0.0 && p.is_finite()) {
                     counters.invalid_scattering += 1;
@@ -299,7 +300,8 @@ pub fn trace_path<G: Guide>(
                 (pdf_bsdf, pdf_guide, alpha, f_value) = (pb, pg, a, f);
             }
             _ => {
-                let Some(s) = bsdf.sample(wo, u_lobe, u_dir) else {
+                let Some(s) = bsdf.sample_counted(wo, u_lobe, u_dir, &mut counters.bsdf_nonfinite)
+                else {
                     break;
                 };
                 if !(s.pdf > 0.0 && s.pdf.is_finite() && is_finite3(s.weight)) {
@@ -362,10 +364,10 @@ pub fn trace_path<G: Guide>(
             RouletteMode::Classic | RouletteMode::Adrrs => {
                 if segments > RR_DEPTH && !adrrs_applied {
                     let q = (throughput.max_element() * eta_scale).min(0.95);
-                    if !(rng.next_f32() < q) {
-                        break;
+                    match crate::sampling::roulette(q, rng.next_f32()) {
+                        Some(factor) => throughput *= factor,
+                        None => break,
                     }
-                    throughput = crate::math::div3(throughput, q);
                 }
             }
         }

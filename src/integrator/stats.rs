@@ -12,6 +12,12 @@ pub struct RenderCounters {
     pub nonfinite_samples: u64,
     /// BSDF or guide samples with a non-finite or non-positive pdf/weight.
     pub invalid_scattering: u64,
+    /// BSDF evaluations and samples whose value, pdf or direction was NaN
+    /// or Inf (zeroed or rejected by the BSDF layer).
+    pub bsdf_nonfinite: u64,
+    /// Guide vertices left to BSDF sampling because the guide's weights at
+    /// the root, or their total, were NaN or Inf.
+    pub guide_root_nonfinite: u64,
     /// Times the guide (not the BSDF) was asked for a direction; one that
     /// could not be drawn also counts in `invalid_scattering`.
     pub guided_samples: u64,
@@ -36,6 +42,8 @@ impl RenderCounters {
         self.shadow_rays += o.shadow_rays;
         self.nonfinite_samples += o.nonfinite_samples;
         self.invalid_scattering += o.invalid_scattering;
+        self.bsdf_nonfinite += o.bsdf_nonfinite;
+        self.guide_root_nonfinite += o.guide_root_nonfinite;
         self.guided_samples += o.guided_samples;
         self.guided_below_horizon += o.guided_below_horizon;
         self.product_lobes_reused += o.product_lobes_reused;
