@@ -134,29 +134,7 @@ mod tests {
 
     #[test]
     fn envmap_sampling_matches_its_pdf_and_integrates_radiance() {
-        // A small map with a bright spot and a dark band.
-        let (w, h) = (16, 8);
-        let pixels = (0..w * h)
-            .map(|k| {
-                let (x, y) = (k % w, k / w);
-                if (x, y) == (3, 2) {
-                    Spectrum::splat(50.0)
-                } else if y == 6 {
-                    Spectrum::ZERO
-                } else {
-                    Spectrum::splat(1.0)
-                }
-            })
-            .collect();
-        let env = EnvMap::new(
-            RgbImage {
-                width: w,
-                height: h,
-                pixels,
-            },
-            1.0,
-            Mat3::from_rotation_y(0.3),
-        );
+        let env = spot_and_band();
         let mut rng = Rng::new(9, 0);
         let mut est_is = 0.0f64;
         let mut est_uniform = 0.0f64;
@@ -179,7 +157,7 @@ mod tests {
         assert!((a - b).abs() < 0.02 * b, "importance {a} vs uniform {b}");
     }
 
-    /// The map of [`envmap_sampling_matches_its_pdf_and_integrates_radiance`].
+    /// A small map with a bright spot, a dark band and a gradient.
     fn spot_and_band() -> EnvMap {
         let (w, h) = (16, 8);
         let pixels = (0..w * h)
