@@ -16,6 +16,7 @@ fn deep_switch_threshold() {
     // Buckets of log2 δ' from −16 to 0.
     let mut poly = [0.0f64; 17];
     let mut mid = [0.0f64; 17];
+    let mut cells = [0usize; 17];
     let mut used = 0.0f64;
     for &alpha in &[1e-3f32, 0.01, 0.1, 0.5] {
         for &theta in &[0.0, 45.0, 80.0] {
@@ -43,6 +44,7 @@ fn deep_switch_threshold() {
                     };
                     let dp = 2.0 * std::f64::consts::PI / (1u64 << depth) as f64 * kappa;
                     let b = (dp.log2().floor() + 16.0).clamp(0.0, 16.0) as usize;
+                    cells[b] += 1;
                     poly[b] = poly[b].max(err(g.children_scalar(cell, 99)));
                     mid[b] = mid[b].max(err(g.children_deep(cell)));
                     used = used.max(err(g.children_scalar(cell, g.deep_depth)));
@@ -63,6 +65,11 @@ fn deep_switch_threshold() {
     // At the switch the midpoint rule must already beat the edge sum, and
     // one bucket coarser the edge sum must still be the better choice.
     let b = (f64::from(DEFAULT_DEEP_CELL_SIZE).log2().floor() + 16.0) as usize;
+    // Empty buckets would compare 0 with 0 and pass whatever the kernels do.
+    assert!(
+        cells[b - 1] > 0 && cells[b + 2] > 0,
+        "no cells measured about the switch: {cells:?}"
+    );
     assert!(
         mid[b - 1] <= poly[b - 1] * 1.5 + 1e-6,
         "midpoint {} vs edges {}",
