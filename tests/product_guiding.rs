@@ -6,7 +6,7 @@
 
 use glam::{Vec2, Vec3};
 use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
-use ltcguide::directional::{dir_to_square, square_to_dir};
+use ltcguide::directional::{Cell, dir_to_square, square_to_dir};
 use ltcguide::guiding::descent::{self, ChildWeights};
 use ltcguide::guiding::guide::WeightModel;
 use ltcguide::guiding::product::{CosineLobes, ProductCache, ProductModel, ProductWeights};
@@ -73,17 +73,34 @@ fn exact_bin_probabilities(
     rx: usize,
     ry: usize,
 ) -> Vec<f64> {
+    exact_bin_probabilities_in(tree, w, rx, ry, Cell::ROOT)
+}
+
+/// [`exact_bin_probabilities`] over the bins of the square of `zoom` alone
+/// (in its own coordinates), unnormalised: they sum to P(zoom).
+fn exact_bin_probabilities_in(
+    tree: &QuadTree,
+    w: &mut ProductWeights,
+    rx: usize,
+    ry: usize,
+    zoom: Cell,
+) -> Vec<f64> {
+    let (zu, zv, zs) = zoom.square_bounds();
     let mut bins = vec![0f64; rx * ry];
     descent::for_each_terminal_cell(tree, w, |cell, mass| {
         let (u0, v0, size) = cell.square_bounds();
-        let (bx0, bx1) = (
-            (u0 * rx as f64).floor() as usize,
-            ((u0 + size) * rx as f64).ceil() as usize,
-        );
-        let (by0, by1) = (
-            (v0 * ry as f64).floor() as usize,
-            ((v0 + size) * ry as f64).ceil() as usize,
-        );
+        // The cell in the zoom's coordinates, clipped to it.
+        let (u0, v0, size) = ((u0 - zu) / zs, (v0 - zv) / zs, size / zs);
+        if u0 >= 1.0 || v0 >= 1.0 || u0 + size <= 0.0 || v0 + size <= 0.0 {
+            return;
+        }
+        let bin_range = |lo: f64, n: usize| {
+            (
+                (lo.max(0.0) * n as f64).floor() as usize,
+                (((lo + size).min(1.0)) * n as f64).ceil() as usize,
+            )
+        };
+        let ((bx0, bx1), (by0, by1)) = (bin_range(u0, rx), bin_range(v0, ry));
         for by in by0..by1.min(ry) {
             for bx in bx0..bx1.min(rx) {
                 let ox =
@@ -229,6 +246,90 @@ fn product_sampling_matches_its_pdf_chi2() {
                 case.alpha, case.theta_o_deg, case.normal, out.message
             );
         }
+    }
+}
+
+/// The whole-square χ² cannot resolve a sharp lobe: at α = 1e-3 it falls
+/// in a few of its bins. Here the distribution conditioned on the deepest
+/// cell that still holds half the mass, in that cell's own coordinates,
+/// resolves the product's refinement below the tree's leaves.
+#[test]
+fn sharp_product_lobes_pass_chi2_when_zoomed_in() {
+    let table = default_ltc_table().unwrap();
+    let model = paper_model(table, ProductKernel::Simd);
+    let mut rng = Rng::new(41, 2);
+    let tree = random_tree(&mut rng, 200);
+    let cfg = Chi2Config {
+        res_x: 16,
+        res_y: 16,
+        samples: 100_000,
+        significance: 0.01 / 4.0,
+        min_expected: 5.0,
+    };
+    for (alpha, theta_o_deg) in [(1e-3, 10.0), (0.01, 45.0), (0.05, 80.0), (1e-3, 70.0)] {
+        let case = Case {
+            alpha,
+            diffuse: false,
+            theta_o_deg,
+            normal: Vec3::new(0.3, -0.4, 0.87).normalize(),
+        };
+        let mut cache = ProductCache::default();
+        let mut w = weights_for(&case, &model, &mut rng, &mut cache).unwrap();
+        // The densest terminal cell, then its deepest ancestor holding half
+        // the mass.
+        let mut densest = (Cell::ROOT, 0.0f64);
+        descent::for_each_terminal_cell(&tree, &mut w, |cell, mass| {
+            let density = mass / cell.square_bounds().2.powi(2);
+            if density > densest.1 {
+                densest = (cell, density);
+            }
+        });
+        let ancestor = |d: u32| {
+            let s = densest.0.depth - d;
+            Cell {
+                depth: d,
+                ix: densest.0.ix >> s,
+                iy: densest.0.iy >> s,
+            }
+        };
+        let (zoom, expected) = (0..=densest.0.depth)
+            .rev()
+            .map(|d| {
+                let zoom = ancestor(d);
+                (
+                    zoom,
+                    exact_bin_probabilities_in(&tree, &mut w, 16, 16, zoom),
+                )
+            })
+            .find(|(_, bins)| bins.iter().sum::<f64>() >= 0.5)
+            .unwrap();
+        let p_zoom: f64 = expected.iter().sum();
+        let expected: Vec<f64> = expected.iter().map(|p| p / p_zoom).collect();
+        let (zu, zv, zs) = zoom.square_bounds();
+        let out = chi2_square_expected(
+            &cfg,
+            || loop {
+                let (p, _) = descent::sample(&tree, &mut w, rng.next_2d()).unwrap();
+                let q = Vec2::new(
+                    ((p.x as f64 - zu) / zs) as f32,
+                    ((p.y as f64 - zv) / zs) as f32,
+                );
+                if (0.0..1.0).contains(&q.x) && (0.0..1.0).contains(&q.y) {
+                    return Some(q);
+                }
+            },
+            &expected,
+        );
+        println!(
+            "α {alpha} θo {theta_o_deg}: zoom depth {} (P {p_zoom:.2}), dof {}, p {:.3}",
+            zoom.depth, out.dof, out.p_value
+        );
+        assert!(out.passed, "α {alpha} θo {theta_o_deg}: {}", out.message);
+        assert!(
+            out.dof >= 30,
+            "α {alpha}: only {} degrees of freedom",
+            out.dof
+        );
     }
 }
 
