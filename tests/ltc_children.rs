@@ -87,7 +87,7 @@ fn children_match_monte_carlo_over_true_cells() {
                         // naive kernel gives 8e-4 and 2e-5): a cost in
                         // variance only where the lobe holds almost nothing.
                         let node: f64 = mc.iter().sum();
-                        if node > 0.0 && (node > 1e-7 * total || level >= 16) {
+                        if node > 0.0 {
                             let split = (0..4)
                                 .map(|k| (got[k] as f64 - mc[k]).abs())
                                 .fold(0.0, f64::max)
