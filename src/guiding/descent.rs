@@ -103,20 +103,23 @@ pub struct Descended {
 /// Largest f32 below 1: a rescaled sample must stay in [0, 1).
 const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 
-/// Weights usable as probabilities: all finite, negatives (approximation
-/// noise) clamped to 0, positive finite total.
-#[inline]
-fn sanitize(w: [f32; 4]) -> Option<([f32; 4], f32)> {
+/// The weights with negatives (approximation noise) clamped to 0, and
+/// their total: NaN when a weight is not finite, ∞ when the sum overflows.
+#[inline(always)]
+fn clamped_total(w: [f32; 4]) -> ([f32; 4], f32) {
     if !(w[0].is_finite() && w[1].is_finite() && w[2].is_finite() && w[3].is_finite()) {
-        return None;
+        return (w, f32::NAN);
     }
     let w = w.map(|x| if x > 0.0 { x } else { 0.0 });
-    let total = (w[0] + w[1]) + (w[2] + w[3]);
-    if total > 0.0 && total.is_finite() {
-        Some((w, total))
-    } else {
-        None
-    }
+    (w, (w[0] + w[1]) + (w[2] + w[3]))
+}
+
+/// Weights usable as probabilities: all finite, negatives clamped to 0,
+/// positive finite total.
+#[inline]
+fn sanitize(w: [f32; 4]) -> Option<([f32; 4], f32)> {
+    let (w, total) = clamped_total(w);
+    (total > 0.0 && total.is_finite()).then_some((w, total))
 }
 
 /// The weights used at one node, with their total, and the root total to
@@ -376,17 +379,7 @@ pub fn pdf_direction<W: ChildWeights>(tree: &QuadTree, weights: &mut W, d: Vec3)
 /// which the descent would silently replace, so that the caller can count
 /// it.
 pub fn root_total<W: ChildWeights>(tree: &QuadTree, weights: &mut W) -> f32 {
-    let w = weights.child_weights(Cell::ROOT, tree.nodes()[0].sums);
-    if let Some((_, total)) = sanitize(w) {
-        return total;
-    }
-    if w.iter().any(|x| !x.is_finite()) {
-        return f32::NAN;
-    }
-    let w = w.map(|x| if x > 0.0 { x } else { 0.0 });
-    let total = (w[0] + w[1]) + (w[2] + w[3]);
-    // Not a positive finite total: zero, or one that overflowed.
-    if total.is_finite() { 0.0 } else { total }
+    clamped_total(weights.child_weights(Cell::ROOT, tree.nodes()[0].sums)).1
 }
 
 #[cfg(test)]
