@@ -226,10 +226,11 @@ fn flip(v: Vec3) -> Vec3 {
     Vec3::new(v.x, v.y, -v.z)
 }
 
-/// Zeroes a non-finite or negative result: callers never see NaN/Inf.
+/// Zeroes a non-finite or negative result, given whether it is finite
+/// (which the caller has checked to count it): callers never see NaN/Inf.
 #[inline]
-fn sanitize(v: Spectrum) -> Spectrum {
-    if is_finite3(v) {
+fn sanitize(v: Spectrum, finite: bool) -> Spectrum {
+    if finite {
         v.max(Spectrum::ZERO)
     } else {
         Spectrum::ZERO
@@ -268,10 +269,14 @@ impl Bsdf {
     #[inline]
     pub fn eval_pdf_counted(&self, wo: Vec3, wi: Vec3, nonfinite: &mut u64) -> (Spectrum, f32) {
         let (f, p) = self.eval_pdf_unguarded(wo, wi);
-        if !(is_finite3(f) && p.is_finite()) {
+        let (f_finite, p_finite) = (is_finite3(f), p.is_finite());
+        if !(f_finite && p_finite) {
             *nonfinite += 1;
         }
-        (sanitize(f), if p.is_finite() { p.max(0.0) } else { 0.0 })
+        (
+            sanitize(f, f_finite),
+            if p_finite { p.max(0.0) } else { 0.0 },
+        )
     }
 
     #[inline]
@@ -341,18 +346,18 @@ impl Bsdf {
             BsdfModel::Dielectric { eta } => dielectric::sample_dielectric(eta, wo, u_lobe),
             BsdfModel::ThinDielectric { eta } => dielectric::sample_thin(eta, wo, u_lobe),
         }?;
-        if !(s.pdf.is_finite() && is_finite3(s.wi) && is_finite3(s.weight)) {
+        let (pdf_finite, wi_finite) = (s.pdf.is_finite(), is_finite3(s.wi));
+        let weight_finite = is_finite3(s.weight);
+        if !(pdf_finite && wi_finite && weight_finite) {
             *nonfinite += 1;
         }
-        let weight = sanitize(s.weight);
         // `pdf > 0` is false for NaN too.
-        let valid_pdf = s.pdf > 0.0 && s.pdf.is_finite();
-        if !valid_pdf || !is_finite3(s.wi) {
+        if !(s.pdf > 0.0 && pdf_finite && wi_finite) {
             return None;
         }
         Some(BsdfSample {
             wi: if mirrored { flip(s.wi) } else { s.wi },
-            weight,
+            weight: sanitize(s.weight, weight_finite),
             ..s
         })
     }
