@@ -72,20 +72,16 @@ fn sample_variance_about(film: &Film, mu: &[DVec3]) -> Vec<f64> {
         .collect()
 }
 
-/// Mean over `pixels` of the variance of the film's pixel means, from the
-/// per-pixel single-sample variances; ∞ if any of them is not finite.
-fn mean_variance_of_means(
-    sample_var: &[f64],
-    spp: u32,
-    pixels: impl Iterator<Item = usize>,
-) -> f64 {
+/// Mean over `pixels` of the per-pixel single-sample variances; ∞ if any
+/// of them is not finite.
+fn mean_sample_variance(sample_var: &[f64], pixels: impl Iterator<Item = usize>) -> f64 {
     let (mut total, mut count) = (0.0f64, 0usize);
     for i in pixels {
         let v = sample_var[i];
         total += if v.is_finite() { v } else { f64::INFINITY };
         count += 1;
     }
-    total / count.max(1) as f64 / spp.max(1) as f64
+    total / count.max(1) as f64
 }
 
 /// Mean over pixels of the variance of the film's pixel means, and the
@@ -105,7 +101,7 @@ fn mean_variance_of_means(
 /// counts it.
 pub(super) fn iteration_variance(film: &Film, mu: &[DVec3]) -> (f64, Vec<f64>) {
     let sample_var = sample_variance_about(film, mu);
-    let mean = mean_variance_of_means(&sample_var, film.spp, 0..sample_var.len());
+    let mean = mean_sample_variance(&sample_var, 0..sample_var.len()) / film.spp.max(1) as f64;
     (mean, sample_var)
 }
 
@@ -180,10 +176,9 @@ pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Ve
         .iter()
         .map(|f| sample_variance_about(f, &mu))
         .collect();
-    let usable: Vec<bool> = films
+    let usable: Vec<bool> = sample_vars
         .iter()
-        .zip(&sample_vars)
-        .map(|(f, sv)| mean_variance_of_means(sv, f.spp, 0..n).is_finite())
+        .map(|sv| sv.iter().all(|v| v.is_finite()))
         .collect();
     *dropped += usable.iter().filter(|&&u| !u).count() as u64;
     // The usable film with the most samples measures its variance most
@@ -191,15 +186,10 @@ pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Ve
     let reference = (0..films.len())
         .filter(|&k| usable[k])
         .max_by_key(|&k| films[k].spp);
-    let has_colour = |c: usize| (0..n).any(|i| colour(i, width) == c);
     let measured_on = |c: usize| -> Option<Vec<f64>> {
-        let per_sample: Vec<f64> = films
+        let per_sample: Vec<f64> = sample_vars
             .iter()
-            .zip(&sample_vars)
-            .map(|(f, sv)| {
-                let on_colour = (0..n).filter(|&i| colour(i, width) == c);
-                mean_variance_of_means(sv, f.spp, on_colour) * f.spp as f64
-            })
+            .map(|sv| mean_sample_variance(sv, (0..n).filter(|&i| colour(i, width) == c)))
             .collect();
         let floor = reference.map_or(0.0, |r| per_sample[r]);
         let variances: Vec<f64> = per_sample
@@ -209,8 +199,9 @@ pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Ve
             .collect();
         normalised_weights(&variances, &films, &usable)
     };
-    // applied[c]: the weights that combine colour c's pixels.
-    let applied: [Vec<f64>; 2] = if has_colour(1) {
+    // applied[c]: the weights that combine colour c's pixels (pixel 1 is
+    // of colour 1 in any image of more than one pixel).
+    let applied: [Vec<f64>; 2] = if n > 1 {
         [measured_on(1)?, measured_on(0)?]
     } else {
         let own = measured_on(0)?;
