@@ -113,11 +113,7 @@ pub fn run_compare(
             reference.width, reference.height, scene.camera.width, scene.camera.height
         ));
     }
-    if let Some((x, y, p, count)) = reference.invalid_pixels() {
-        return Err(format!(
-            "the reference has {count} pixels with NaN, Inf or negative values, the first at ({x}, {y}): {p}"
-        ));
-    }
+    reference.check_valid("the reference")?;
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
     }

@@ -78,14 +78,6 @@ pub fn read_image(path: &Path) -> Result<super::image::Image, String> {
 /// file and its first bad pixel, if any pixel is NaN, Inf or negative.
 pub fn read_valid_image(path: &Path) -> Result<super::image::Image, String> {
     let img = read_image(path)?;
-    match img.invalid_pixels() {
-        None => Ok(img),
-        Some((x, y, p, count)) => Err(format!(
-            "'{}' has {count} pixels with NaN, Inf or negative values, the first at ({x}, {y}): ({}, {}, {})",
-            path.display(),
-            p.x,
-            p.y,
-            p.z
-        )),
-    }
+    img.check_valid(&format!("'{}'", path.display()))?;
+    Ok(img)
 }

@@ -102,15 +102,25 @@ pub struct Image {
 }
 
 impl Image {
-    /// The first pixel, as (x, y, value), with a NaN, Inf or negative
-    /// channel, and how many such pixels there are: an error metric
-    /// against such an image is NaN or meaningless.
-    pub fn invalid_pixels(&self) -> Option<(usize, usize, Spectrum, usize)> {
+    /// Refuses an image with a NaN, Inf or negative channel, against which
+    /// an error metric is NaN or meaningless: the error names the image
+    /// (`what`), how many pixels are bad, and the first of them.
+    pub fn check_valid(&self, what: &str) -> Result<(), String> {
         let bad = |p: &Spectrum| !crate::math::is_finite3(*p) || p.min_element() < 0.0;
-        let first = self.pixels.iter().position(bad)?;
+        let Some(first) = self.pixels.iter().position(bad) else {
+            return Ok(());
+        };
         let count = self.pixels.iter().filter(|p| bad(p)).count();
         let w = self.width.max(1);
-        Some((first % w, first / w, self.pixels[first], count))
+        let p = self.pixels[first];
+        Err(format!(
+            "{what} has {count} pixels with NaN, Inf or negative values, the first at ({}, {}): ({}, {}, {})",
+            first % w,
+            first / w,
+            p.x,
+            p.y,
+            p.z
+        ))
     }
 
     pub fn mean_rgb(&self) -> Spectrum {
