@@ -147,17 +147,39 @@ fn weights_for<'c>(
     rng: &mut Rng,
     cache: &'c mut ProductCache,
 ) -> Option<ProductWeights<'c>> {
-    let frame = Frame::from_normal(case.normal);
-    let t = case.theta_o_deg.to_radians();
     let phi = std::f32::consts::TAU * rng.next_f32();
-    let wo = Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos());
     let bsdf = material(case.alpha, case.diffuse).at(Vec2::ZERO);
+    weights_at(
+        model,
+        case.normal,
+        wo_at(case.theta_o_deg, phi),
+        &bsdf,
+        cache,
+    )
+}
+
+/// The local ω_o at polar angle `theta_o_deg` and azimuth `phi`.
+fn wo_at(theta_o_deg: f32, phi: f32) -> Vec3 {
+    let t = theta_o_deg.to_radians();
+    Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos())
+}
+
+/// The product weights of the first vertex at the origin with `normal`,
+/// local ω_o `wo` and `bsdf`.
+fn weights_at<'c>(
+    model: &'c ProductModel,
+    normal: Vec3,
+    wo: Vec3,
+    bsdf: &ltcguide::bsdf::Bsdf,
+    cache: &'c mut ProductCache,
+) -> Option<ProductWeights<'c>> {
+    let frame = Frame::from_normal(normal);
     let ctx = VertexContext {
         p: Vec3::ZERO,
-        ng: case.normal,
+        ng: normal,
         frame: &frame,
         wo_local: wo,
-        bsdf: &bsdf,
+        bsdf,
         needs_adjoint: false,
         vertex_index: 0,
     };
@@ -455,19 +477,9 @@ fn product_samples_gather_about_the_world_mirror_direction() {
         let normal = normal.normalize();
         let frame = Frame::from_normal(normal);
         for phi in [0.4f32, 2.0, 4.5] {
-            let t = 35f32.to_radians();
-            let wo = Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos());
-            let ctx = VertexContext {
-                p: Vec3::ZERO,
-                ng: normal,
-                frame: &frame,
-                wo_local: wo,
-                bsdf: &bsdf,
-                needs_adjoint: false,
-                vertex_index: 0,
-            };
+            let wo = wo_at(35.0, phi);
             let mut cache = ProductCache::default();
-            let mut w = model.weights(&ctx, &mut cache).unwrap();
+            let mut w = weights_at(&model, normal, wo, &bsdf, &mut cache).unwrap();
             let mean: Vec3 = (0..1000)
                 .map(|_| square_to_dir(descent::sample(&tree, &mut w, rng.next_2d()).unwrap().0))
                 .sum();
