@@ -12,6 +12,7 @@ pub mod directional;
 pub mod emitter;
 pub mod experiment;
 pub mod film;
+pub mod guards;
 pub mod guiding;
 pub mod huge;
 pub mod integrator;

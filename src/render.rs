@@ -2,6 +2,7 @@
 //! the statistics every run reports.
 
 use crate::film::image::{Film, Image};
+use crate::guards::drain_pool;
 use crate::guiding::guide::RadianceModel;
 use crate::guiding::product::{CosineLobes, ProductModel};
 use crate::guiding::sdtree::SdTree;
@@ -15,6 +16,8 @@ use crate::scene::Scene;
 use serde::Serialize;
 use std::sync::OnceLock;
 
+/// The guard counters every run reports live in [`crate::guards`].
+pub use crate::guards::Guards;
 /// The run's clock, snapshots and call sizes live in [`crate::pacing`].
 pub use crate::pacing::{PassPacer, RenderClock, Snapshot, SnapshotPlan};
 
@@ -104,69 +107,6 @@ impl Default for RenderOptions {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
-pub struct Guards {
-    /// Path contributions that were NaN/Inf/negative (replaced by zero).
-    pub image_nonfinite_samples: u64,
-    /// BSDF or guide samples with unusable pdf or weight (path ended).
-    pub invalid_scattering: u64,
-    /// NaN/Inf BSDF values, pdfs or sampled directions (zeroed or rejected).
-    pub bsdf_nonfinite: u64,
-    /// Guide vertices dropped for NaN/Inf weights at the root.
-    pub guide_root_nonfinite: u64,
-    /// Learning records rejected before they could reach the SD-tree.
-    pub tree_records_non_finite: u64,
-    pub tree_records_negative: u64,
-    pub tree_records_zero_pdf: u64,
-    /// Adam steps rejected (non-finite gradient, vanishing mixture pdf).
-    pub optimizer_rejected: u64,
-    /// ADRRS decisions whose estimates were NaN, Inf or negative (no
-    /// roulette played).
-    pub adrrs_invalid_estimate: u64,
-    /// Non-finite LTC inputs or outputs zeroed.
-    pub ltc_nonfinite: u64,
-    /// Guided iterations left out of the image: their variance was not finite.
-    pub iterations_dropped_nonfinite_variance: u64,
-}
-
-impl Guards {
-    /// Every counter with its name as --stats-json spells it (the one list
-    /// `total` and `describe` read, so neither can miss a counter).
-    pub fn entries(&self) -> [(&'static str, u64); 11] {
-        [
-            ("image_nonfinite_samples", self.image_nonfinite_samples),
-            ("invalid_scattering", self.invalid_scattering),
-            ("bsdf_nonfinite", self.bsdf_nonfinite),
-            ("guide_root_nonfinite", self.guide_root_nonfinite),
-            ("tree_records_non_finite", self.tree_records_non_finite),
-            ("tree_records_negative", self.tree_records_negative),
-            ("tree_records_zero_pdf", self.tree_records_zero_pdf),
-            ("optimizer_rejected", self.optimizer_rejected),
-            ("adrrs_invalid_estimate", self.adrrs_invalid_estimate),
-            ("ltc_nonfinite", self.ltc_nonfinite),
-            (
-                "iterations_dropped_nonfinite_variance",
-                self.iterations_dropped_nonfinite_variance,
-            ),
-        ]
-    }
-
-    pub fn total(&self) -> u64 {
-        self.entries().iter().map(|e| e.1).sum()
-    }
-
-    /// The counters that fired, by name: `name N, name N`; empty if none.
-    pub fn describe(&self) -> String {
-        let fired: Vec<String> = self
-            .entries()
-            .iter()
-            .filter(|e| e.1 > 0)
-            .map(|(name, n)| format!("{name} {n}"))
-            .collect();
-        fired.join(", ")
-    }
-}
-
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
     pub scene: String,
@@ -200,10 +140,10 @@ pub struct RenderStats {
 pub struct RenderResult {
     pub image: Image,
     /// Per-pixel variance of the estimate (of the mean), channel average.
-    pub variance: Vec<f32>,
+    pub variance: Vec<f64>,
     /// Guided methods: the last iteration's per-pixel single-sample
     /// variance (see [`crate::guiding::train::GuidedOutput`]).
-    pub last_iteration_variance: Vec<f32>,
+    pub last_iteration_variance: Vec<f64>,
     pub stats: RenderStats,
     pub snapshots: Vec<Snapshot>,
     /// The learned guide of a guided method.
@@ -263,7 +203,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);
-    let ltc_guards_before = crate::ltc::nonfinite_guard_count();
+    // The pool is the render's own, so what its workers record is this
+    // render's (see crate::guards).
+    drain_pool(&pool);
     let cpu_before = process_cpu_seconds();
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan::at(opts.snapshot_times.clone());
@@ -341,6 +283,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let seconds = clock.seconds();
     let cpu_seconds = process_cpu_seconds() - cpu_before;
     let mean = image.mean_rgb();
+    let events = drain_pool(&pool);
     let guards = Guards {
         image_nonfinite_samples: counters.nonfinite_samples,
         invalid_scattering: counters.invalid_scattering,
@@ -353,12 +296,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         tree_records_zero_pdf: guiding.as_ref().map_or(0, |g| g.records_rejected_zero_pdf),
         optimizer_rejected: guiding.as_ref().map_or(0, |g| g.adam_rejected),
         adrrs_invalid_estimate: counters.adrrs.invalid_estimate,
-        // Process-wide counter: concurrent renders in one process share it.
-        ltc_nonfinite: crate::ltc::nonfinite_guard_count() - ltc_guards_before,
         iterations_dropped_nonfinite_variance: guiding
             .as_ref()
             .map_or(0, |g| g.iterations_dropped_nonfinite_variance),
-    };
+        ..Guards::default()
+    }
+    .with_events(&events);
     let stats = RenderStats {
         scene: scene.name.clone(),
         method: plan.method,
@@ -483,38 +426,4 @@ fn render_unguided(
         }
     }
     (film, counters)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `entries` lists every serialised counter once, in order, so that
-    /// `total` and `describe` see every guard a new field adds.
-    #[test]
-    fn guards_entries_cover_every_counter() {
-        let json = serde_json::to_value(Guards::default()).unwrap();
-        let keys: Vec<&str> = json
-            .as_object()
-            .unwrap()
-            .keys()
-            .map(|k| k.as_str())
-            .collect();
-        let mut names: Vec<&str> = Guards::default().entries().iter().map(|e| e.0).collect();
-        names.sort_unstable();
-        let mut sorted = keys.clone();
-        sorted.sort_unstable();
-        assert_eq!(names, sorted);
-        let g = Guards {
-            bsdf_nonfinite: 2,
-            iterations_dropped_nonfinite_variance: 1,
-            ..Guards::default()
-        };
-        assert_eq!(g.total(), 3);
-        assert_eq!(
-            g.describe(),
-            "bsdf_nonfinite 2, iterations_dropped_nonfinite_variance 1"
-        );
-        assert_eq!(Guards::default().describe(), "");
-    }
 }

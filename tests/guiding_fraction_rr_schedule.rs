@@ -338,7 +338,7 @@ fn inverse_variance_combination_matches_hand_computation() {
         for c in 0..3 {
             assert!(close(image.pixels[p][c] as f64, 4.0), "{:?}", image.pixels);
         }
-        assert!(close(variance[p] as f64, 8.0 / 9.0), "{variance:?}");
+        assert!(close(variance[p], 8.0 / 9.0), "{variance:?}");
     }
     // The film without samples takes no part.
     assert_eq!(weights.len(), 2);

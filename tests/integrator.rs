@@ -124,6 +124,44 @@ fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
     );
 }
 
+/// Guards that fire where no per-thread counters reach (here a negative
+/// BSDF value and negative lobe weights) reach a render's statistics,
+/// counted on the render's own workers, and the image stays non-negative.
+#[test]
+fn guard_events_of_a_render_reach_its_stats() {
+    use ltcguide::bsdf::MaterialKind;
+    use ltcguide::render::{Budget, Method, RenderOptions, render};
+    use ltcguide::texture::Texture;
+    let mut scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let floor = scene
+        .materials
+        .iter_mut()
+        .find(|m| matches!(&m.kind, MaterialKind::Diffuse { reflectance: Texture::Constant(r) } if r.x == 0.5))
+        .unwrap();
+    floor.kind = MaterialKind::Diffuse {
+        reflectance: Texture::Constant(glam::Vec3::splat(-0.5)),
+    };
+    for method in [Method::Pt, Method::Product] {
+        let opts = RenderOptions {
+            method,
+            budget: Budget::Spp(4),
+            threads: 2,
+            use_plan: false,
+            ..Default::default()
+        };
+        let r = render(&scene, &opts).unwrap();
+        let g = r.stats.guards;
+        assert!(g.bsdf_negative > 0, "{method:?}: {g:?}");
+        assert_eq!(
+            g.lobe_weights_invalid > 0,
+            method == Method::Product,
+            "{method:?}: {g:?}"
+        );
+        assert!(g.describe().contains("bsdf_negative"), "{g:?}");
+        assert!(r.image.pixels.iter().all(|p| p.min_element() >= 0.0));
+    }
+}
+
 /// A guide whose adjoint estimate is NaN: at every vertex where ADRRS
 /// would play (from the second on), the path loop counts the estimate as
 /// invalid and plays classic roulette's rule instead of none at all.

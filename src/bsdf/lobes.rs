@@ -2,6 +2,7 @@
 //! weights and roughness that [`Lobes`] documents, with its approximations.
 
 use super::{Bsdf, BsdfModel, GgxLobe, Lobes, conductor, flip, fresnel, plastic};
+use crate::guards::{GuardEvent, record};
 use crate::math::luminance;
 use glam::Vec3;
 
@@ -17,7 +18,14 @@ impl Bsdf {
         };
         let front = wo.z > 0.0;
         let cos_o = wo.z.clamp(0.0, 1.0);
-        let nonneg = |x: f32| if x.is_finite() { x.max(0.0) } else { 0.0 };
+        let nonneg = |x: f32| {
+            if x >= 0.0 && x.is_finite() {
+                x
+            } else {
+                record(GuardEvent::LobeWeightInvalid, 1);
+                0.0
+            }
+        };
         match self.model {
             BsdfModel::Diffuse { reflectance } if front => {
                 l.diffuse = nonneg(luminance(reflectance));

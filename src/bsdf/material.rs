@@ -161,9 +161,10 @@ impl Material {
 
     /// Resolves the textures at `uv` (already v-flipped as the README says).
     pub fn at(&self, uv: Vec2) -> Bsdf {
-        // Textures are validated finite; negative texels (possible in EXR)
-        // would make f negative, so they are clamped here.
-        let tex = |t: &Texture| t.eval(uv).max(Spectrum::ZERO);
+        // The loader rejects non-finite and negative texels, so lookups are
+        // finite and non-negative; a negative value set after loading reaches
+        // the BSDF layer, which zeroes and counts it (`bsdf_negative`).
+        let tex = |t: &Texture| t.eval(uv);
         let model = match &self.kind {
             MaterialKind::Diffuse { reflectance } => BsdfModel::Diffuse {
                 reflectance: tex(reflectance),

@@ -33,6 +33,7 @@ pub mod microfacet;
 pub mod plastic;
 pub mod plastic_tables;
 
+use crate::guards::{GuardEvent, record};
 use crate::math::{Spectrum, is_finite3};
 use crate::texture::Texture;
 use glam::{Vec2, Vec3};
@@ -272,6 +273,8 @@ impl Bsdf {
         let (f_finite, p_finite) = (is_finite3(f), p.is_finite());
         if !(f_finite && p_finite) {
             *nonfinite += 1;
+        } else if f.min_element() < 0.0 || p < 0.0 {
+            record(GuardEvent::BsdfNegative, 1);
         }
         (
             sanitize(f, f_finite),
@@ -350,6 +353,8 @@ impl Bsdf {
         let weight_finite = is_finite3(s.weight);
         if !(pdf_finite && wi_finite && weight_finite) {
             *nonfinite += 1;
+        } else if s.pdf < 0.0 || s.weight.min_element() < 0.0 {
+            record(GuardEvent::BsdfNegative, 1);
         }
         // `pdf > 0` is false for NaN too.
         if !(s.pdf > 0.0 && pdf_finite && wi_finite) {
@@ -439,5 +444,37 @@ mod tests {
         assert!(clean.sample_counted(down, 0.5, u, &mut count).is_none());
         assert!(clean.sample_counted(wo, 0.5, u, &mut count).is_some());
         assert_eq!(count, 3);
+    }
+
+    /// Negative values and weights are zeroed and counted apart from the
+    /// non-finite ones; lobe weights that are NaN or negative too.
+    #[test]
+    fn negative_values_and_invalid_lobe_weights_are_counted() {
+        use crate::guards::{GuardEvent, thread_count};
+        let diffuse = |r: f32| Bsdf {
+            model: BsdfModel::Diffuse {
+                reflectance: Spectrum::splat(r),
+            },
+            two_sided: false,
+        };
+        let negative = || thread_count(GuardEvent::BsdfNegative);
+        let invalid_lobes = || thread_count(GuardEvent::LobeWeightInvalid);
+        let (n0, l0) = (negative(), invalid_lobes());
+        let (wo, up) = (Vec3::Z, Vec3::new(0.6, 0.0, 0.8));
+        let mut nonfinite = 0;
+        let (f, p) = diffuse(-0.5).eval_pdf_counted(wo, up, &mut nonfinite);
+        assert_eq!((f, nonfinite, negative()), (Spectrum::ZERO, 0, n0 + 1));
+        assert!(p > 0.0);
+        let s = diffuse(-0.5).sample_counted(wo, 0.5, Vec2::splat(0.3), &mut nonfinite);
+        assert_eq!(s.unwrap().weight, Spectrum::ZERO);
+        assert_eq!((nonfinite, negative()), (0, n0 + 2));
+        diffuse(0.5).eval_pdf_counted(wo, up, &mut nonfinite);
+        assert_eq!(negative(), n0 + 2);
+
+        assert_eq!(diffuse(0.5).lobes(wo).diffuse, 0.5);
+        assert_eq!(invalid_lobes(), l0);
+        assert_eq!(diffuse(f32::NAN).lobes(wo).diffuse, 0.0);
+        assert_eq!(diffuse(-1.0).lobes(wo).diffuse, 0.0);
+        assert_eq!(invalid_lobes(), l0 + 2);
     }
 }

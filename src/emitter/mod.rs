@@ -2,6 +2,7 @@
 //! spheres, the lat-long `envmap`, and `constant` — with next-event sampling
 //! and the matching solid-angle pdfs for multiple importance sampling.
 
+use crate::guards::{GuardEvent, record};
 use crate::math::div3;
 use crate::math::{INV_4PI, PI, Spectrum, luminance};
 use crate::sampling::{Distribution1D, square_to_triangle, square_to_uniform_sphere};
@@ -410,7 +411,8 @@ fn aim_from_origin(s: LightSample, origin: &impl Fn(Vec3) -> Vec3) -> Option<Lig
     }
     let to = s.origin + s.wi * s.dist - o;
     let dist = to.length();
-    if !(dist > 0.0) {
+    if !(dist > 0.0 && dist.is_finite()) {
+        record(GuardEvent::LightSampleDegenerate, 1);
         return None;
     }
     Some(LightSample {
@@ -437,7 +439,8 @@ mod tests {
     use super::*;
 
     /// An offset origin that lands on the sampled point leaves no direction
-    /// to aim along: the sample is dropped instead of carrying 0/0 = NaN.
+    /// to aim along: the sample is dropped, and counted, instead of
+    /// carrying 0/0 = NaN.
     #[test]
     fn a_sample_aimed_from_its_own_point_is_dropped() {
         let s = LightSample {
@@ -448,7 +451,12 @@ mod tests {
             pdf: 1.0,
             prim: 0,
         };
+        let dropped =
+            || crate::guards::thread_count(crate::guards::GuardEvent::LightSampleDegenerate);
+        let before = dropped();
         assert!(aim_from_origin(s, &|_| Vec3::Z).is_none());
+        assert!(aim_from_origin(s, &|_| Vec3::splat(f32::NAN)).is_none());
+        assert_eq!(dropped(), before + 2);
         let moved = aim_from_origin(s, &|_| Vec3::new(0.0, 0.0, 0.5)).unwrap();
         assert_eq!((moved.wi, moved.dist), (Vec3::Z, 0.5));
     }

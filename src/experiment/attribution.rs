@@ -168,9 +168,9 @@ struct Figures {
     final_seconds_per_spp: f64,
     final_variance: f64,
     /// The final iteration's per-pixel single-sample variance.
-    final_pixel_variance: Vec<f32>,
+    final_pixel_variance: Vec<f64>,
     image: Image,
-    variance: Vec<f32>,
+    variance: Vec<f64>,
     tree: Option<SdTree>,
 }
 
@@ -228,12 +228,12 @@ fn pair_normalisers(a: &Figures, b: &Figures) -> Vec<f64> {
 
 /// Means over pixels of two per-pixel variances, each times the pair's
 /// normaliser `norm`; NaN when a variance does not cover the image.
-fn relative_means(norm: &[f64], va: &[f32], vb: &[f32]) -> (f64, f64) {
+fn relative_means(norm: &[f64], va: &[f64], vb: &[f64]) -> (f64, f64) {
     let n = norm.len();
     if va.len() != n || vb.len() != n || n == 0 {
         return (f64::NAN, f64::NAN);
     }
-    let sum = |v: &[f32]| v.iter().zip(norm).map(|(&v, w)| v as f64 * w).sum::<f64>();
+    let sum = |v: &[f64]| v.iter().zip(norm).map(|(&v, w)| v * w).sum::<f64>();
     (sum(va) / n as f64, sum(vb) / n as f64)
 }
 
@@ -371,7 +371,7 @@ pub fn run_attribution(
         let (fp, fr) = relative_means(&norm, &p.final_pixel_variance, &r.final_pixel_variance);
         let by_class = |f: &Figures| {
             let v = f.final_pixel_variance.iter().zip(&norm);
-            class_sums(&classes, v.map(|(&v, w)| v as f64 * w))
+            class_sums(&classes, v.map(|(&v, w)| v * w))
         };
         class_seeds.push((by_class(&p), by_class(&r)));
         let values = [

@@ -66,9 +66,9 @@ fn lum(p: glam::Vec3) -> f64 {
 /// over-estimate for coloured pixels, which makes the test conservative).
 pub fn compare_blocks(
     a: &Image,
-    var_a: &[f32],
+    var_a: &[f64],
     b: &Image,
-    var_b: &[f32],
+    var_b: &[f64],
     block: usize,
 ) -> Result<BlockComparison, String> {
     if a.width != b.width || a.height != b.height {
@@ -93,7 +93,7 @@ pub fn compare_blocks(
                     let i = y * w + x;
                     ma += lum(a.pixels[i]);
                     mb += lum(b.pixels[i]);
-                    v += var_a[i] as f64 + var_b[i] as f64;
+                    v += var_a[i] + var_b[i];
                 }
             }
             sa += ma;

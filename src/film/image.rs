@@ -64,14 +64,14 @@ impl Film {
     }
 
     /// Per-pixel variance of the mean (sample variance / spp), averaged over channels.
-    pub fn variance_of_mean(&self) -> Vec<f32> {
+    pub fn variance_of_mean(&self) -> Vec<f64> {
         let n = self.spp as f64;
         self.sum
             .iter()
             .zip(&self.sum_sq)
             .map(|(s, q)| {
                 if n < 2.0 {
-                    return f32::INFINITY;
+                    return f64::INFINITY;
                 }
                 let mut v = 0.0f64;
                 for c in 0..3 {
@@ -79,7 +79,7 @@ impl Film {
                     let var = ((q[c] / n) - mean * mean).max(0.0) * n / (n - 1.0);
                     v += var / n;
                 }
-                (v / 3.0) as f32
+                v / 3.0
             })
             .collect()
     }

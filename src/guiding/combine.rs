@@ -147,7 +147,7 @@ fn normalised_weights(variances: &[f64], films: &[&Film], usable: &[bool]) -> Op
 /// Inverse-variance combination of iteration images (weights 1/mean
 /// variance, DESIGN.md §5), with the per-pixel variance of the combination
 /// and the films' weights (averaged over the pixels, so that they sum to 1).
-pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
+pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f64>, Vec<f64>)> {
     combine_counting(films, &mut 0)
 }
 
@@ -156,7 +156,7 @@ pub fn combine(films: &[&Film]) -> Option<(Image, Vec<f32>, Vec<f64>)> {
 /// the other colour's (on their own in an image of one pixel), and no
 /// film's per-sample variance is taken below that of the usable film with
 /// the most samples (see the module's notes).
-pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Vec<f32>, Vec<f64>)> {
+pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Vec<f64>, Vec<f64>)> {
     let first = films.first()?;
     let films: Vec<&Film> = films.iter().copied().filter(|f| f.spp > 0).collect();
     if films.is_empty() {
@@ -231,7 +231,7 @@ pub fn combine_counting(films: &[&Film], dropped: &mut u64) -> Option<(Image, Ve
             height: first.height,
             pixels: pixels.iter().map(|p| p.as_vec3()).collect(),
         },
-        variance.iter().map(|&v| v as f32).collect(),
+        variance,
         mean_weights,
     ))
 }

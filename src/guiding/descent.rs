@@ -12,14 +12,16 @@
 //! (conditional), and both are stretched back to [0,1), so a stratified
 //! input stays stratified at every level.
 //!
-//! Fallback: weights that are non-finite, or all zero below a parent that had
-//! weight, are replaced by the radiance sums at that level, and if those are
+//! Fallback: weights that are non-finite (counted as
+//! [`GuardEvent::DescentWeightsNonfinite`]), or all zero below a parent that
+//! had weight, are replaced by the radiance sums at that level, and if those are
 //! zero too by the uniform split. Only a zero (or unusable) root means the
 //! guide has nothing to offer: `sample` returns `None` and `pdf` 0, and the
 //! caller samples the BSDF alone.
 
 use super::quadtree::{QuadTree, child_slot};
 use crate::directional::{Cell, SQUARE_TO_SOLID_ANGLE_PDF, dir_to_square, square_to_dir};
+use crate::guards::{GuardEvent, record};
 use glam::{Vec2, Vec3};
 
 /// The per-vertex view of the tree: radiance guiding returns the radiance
@@ -137,8 +139,14 @@ fn resolve<W: ChildWeights>(
     cell: Cell,
     radiance: [f32; 4],
 ) -> Option<([f32; 4], f32, f32)> {
-    if let Some((w, t)) = sanitize(weights.child_weights(cell, radiance)) {
+    let (w, t) = clamped_total(weights.child_weights(cell, radiance));
+    if t > 0.0 && t.is_finite() {
         return Some((w, t, t));
+    }
+    // The root's own guard is the caller's (it sees the root total); below
+    // it, a NaN or Inf is replaced here and must not pass uncounted.
+    if !t.is_finite() && cell.depth > 0 {
+        record(GuardEvent::DescentWeightsNonfinite, 1);
     }
     if let Some((w, t)) = sanitize(radiance) {
         return Some((w, t, 0.0));
@@ -445,8 +453,26 @@ mod tests {
                 [f32::NAN; 4]
             }
         }
+        // Counted at each level below the root (the root's guard is the
+        // caller's): here one, the tree's second level.
+        let counted =
+            || crate::guards::thread_count(crate::guards::GuardEvent::DescentWeightsNonfinite);
+        let before = counted();
         assert_eq!(pdf(&t, &mut Nan, p), 2.0);
+        assert_eq!(counted(), before + 1);
         assert_eq!(pdf_descend(&t, &mut Nan, p).1, 0.0);
+        assert_eq!(counted(), before + 2);
+        // An overflowing total of finite weights is not finite either.
+        struct Huge;
+        impl ChildWeights for Huge {
+            fn child_weights(&mut self, cell: Cell, _: [f32; 4]) -> [f32; 4] {
+                [if cell.depth == 0 { 1.0 } else { f32::MAX }; 4]
+            }
+        }
+        assert_eq!(pdf(&t, &mut Huge, p), 1.0);
+        assert_eq!(counted(), before + 3);
+        assert_eq!(pdf(&t, &mut RadianceWeights, p), 2.0);
+        assert_eq!(counted(), before + 3);
         // A zero child is never sampled and has pdf 0.
         assert_eq!(pdf(&t, &mut RadianceWeights, Vec2::new(0.7, 0.2)), 0.0);
         for i in 0..1000 {

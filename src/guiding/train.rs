@@ -76,11 +76,11 @@ pub struct GuidingStats {
 
 pub struct GuidedOutput {
     pub image: Image,
-    pub variance: Vec<f32>,
+    pub variance: Vec<f64>,
     /// Per-pixel single-sample variance of the last iteration about its
     /// own mean (channel average, corrected by n/(n − 1)); empty below 4
     /// spp, where it says little.
-    pub last_iteration_variance: Vec<f32>,
+    pub last_iteration_variance: Vec<f64>,
     pub spp: u32,
     pub counters: RenderCounters,
     pub stats: GuidingStats,
@@ -401,7 +401,7 @@ pub fn render_guided<M: WeightModel>(
             let n = f.spp as f64;
             last_pixel_variance
                 .into_iter()
-                .map(|v| (v * n / (n - 1.0)) as f32)
+                .map(|v| v * n / (n - 1.0))
                 .collect()
         }
         _ => Vec::new(),

@@ -29,7 +29,7 @@
 //! - [`ProductKernel::Naive`] runs the f64 reference with exact clipping.
 //!
 //! Every returned value is finite and non-negative; anything else is zeroed
-//! and counted ([`nonfinite_guard_count`]).
+//! and counted ([`GuardEvent::LtcNonfinite`]).
 
 mod diffuse;
 
@@ -46,10 +46,10 @@ use super::sphere_clip::clipped_integral;
 use super::table::LtcTable;
 use crate::bsdf::Lobes;
 use crate::directional::Cell;
+use crate::guards::{GuardEvent, record};
 use crate::math::Frame;
 use glam::{DMat3, DVec3, Vec3};
 use std::f32::consts::PI;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use super::options::{
     DEFAULT_DEEP_CELL_SIZE, EXACT_CLIP_DEPTH, EXACT_CROSSING_DEPTH, FIRST_PLAIN_QUAD_DEPTH,
@@ -87,13 +87,6 @@ impl HorizonSide {
     }
 }
 
-static NONFINITE_GUARDED: AtomicU64 = AtomicU64::new(0);
-
-/// How many non-finite intermediate values the LTC code has zeroed so far.
-pub fn nonfinite_guard_count() -> u64 {
-    NONFINITE_GUARDED.load(Ordering::Relaxed)
-}
-
 /// [`guard`] on the 4 children at once: one mask test instead of four
 /// branches on the guider's per-level path.
 #[inline(always)]
@@ -103,7 +96,7 @@ fn guard4(v: [f32; 4]) -> [f32; 4] {
     let finite = x.is_finite();
     let bad = !finite.to_bitmask() & 0xF;
     if bad != 0 {
-        NONFINITE_GUARDED.fetch_add(bad.count_ones() as u64, Ordering::Relaxed);
+        record(GuardEvent::LtcNonfinite, bad.count_ones() as u64);
     }
     finite
         .bitselect(x.fast_max(f32x4::splat(0.0)), f32x4::splat(0.0))
@@ -115,7 +108,7 @@ fn guard(v: f32) -> f32 {
     if v.is_finite() {
         v.max(0.0)
     } else {
-        NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+        record(GuardEvent::LtcNonfinite, 1);
         0.0
     }
 }
@@ -401,7 +394,7 @@ fn sanitize_weight(w: f32) -> f32 {
     if w.is_finite() {
         w.max(0.0)
     } else {
-        NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+        record(GuardEvent::LtcNonfinite, 1);
         0.0
     }
 }
@@ -425,13 +418,13 @@ impl ShadingLtc {
         .transpose();
         let mut normal = frame.n * side as f32;
         if !(normal.is_finite() && normal.length_squared() > 0.0) {
-            NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+            record(GuardEvent::LtcNonfinite, 1);
             normal = Vec3::Z;
         }
         let wo = if wo_local.is_finite() {
             wo_local
         } else {
-            NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+            record(GuardEvent::LtcNonfinite, 1);
             Vec3::Z
         };
         let cos_theta_o = (wo.z / wo.length().max(1e-30)).clamp(0.0, 1.0);
@@ -468,7 +461,7 @@ impl ShadingLtc {
             let alpha = if lobe.alpha.is_finite() {
                 lobe.alpha
             } else {
-                NONFINITE_GUARDED.fetch_add(1, Ordering::Relaxed);
+                record(GuardEvent::LtcNonfinite, 1);
                 1.0
             };
             if w <= 0.0 {

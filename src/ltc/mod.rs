@@ -62,6 +62,6 @@ mod simd_avx2;
 pub mod sphere_clip;
 pub mod table;
 
-pub use children::{LtcOptions, ProductKernel, ShadingLtc, nonfinite_guard_count};
+pub use children::{LtcOptions, ProductKernel, ShadingLtc};
 pub use fit::{FitOptions, FitReport, run_fit};
 pub use table::LtcTable;

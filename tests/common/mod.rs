@@ -66,8 +66,8 @@ pub fn compare_with_reference(
     block: usize,
 ) -> BlockComparison {
     let var = &result.variance;
-    let scale = result.stats.spp as f32 / ref_spp as f32;
-    let var_ref: Vec<f32> = var.iter().map(|v| v * scale).collect();
+    let scale = result.stats.spp as f64 / ref_spp as f64;
+    let var_ref: Vec<f64> = var.iter().map(|v| v * scale).collect();
     compare_blocks(&result.image, var, reference, &var_ref, block).expect("same size")
 }
 
