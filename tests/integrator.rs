@@ -72,12 +72,9 @@ fn sphere_light_direct_lighting_matches_closed_form_with_and_without_nee() {
     }
 }
 
-/// A BSDF that evaluates and samples to Inf (a diffuse floor whose
-/// reflectance was made infinite after loading) is zeroed by the BSDF layer,
-/// and the path loop counts every such value: NEE's evaluation and the
-/// BSDF sample each time. Nothing non-finite reaches the estimate.
-#[test]
-fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
+/// The analytic scene with its diffuse floor's reflectance set after
+/// loading, past the loader's checks, to a value no scene file may hold.
+fn sphere_over_plane_with_floor_reflectance(value: f32) -> ltcguide::scene::Scene {
     use ltcguide::bsdf::MaterialKind;
     use ltcguide::texture::Texture;
     let mut scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
@@ -87,8 +84,18 @@ fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
         .find(|m| matches!(&m.kind, MaterialKind::Diffuse { reflectance: Texture::Constant(r) } if r.x == 0.5))
         .unwrap();
     floor.kind = MaterialKind::Diffuse {
-        reflectance: Texture::Constant(glam::Vec3::splat(f32::INFINITY)),
+        reflectance: Texture::Constant(glam::Vec3::splat(value)),
     };
+    scene
+}
+
+/// A BSDF that evaluates and samples to Inf (a diffuse floor whose
+/// reflectance was made infinite after loading) is zeroed by the BSDF layer,
+/// and the path loop counts every such value: NEE's evaluation and the
+/// BSDF sample each time. Nothing non-finite reaches the estimate.
+#[test]
+fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
+    let scene = sphere_over_plane_with_floor_reflectance(f32::INFINITY);
     let settings = PathSettings {
         nee: true,
         max_depth: Some(3),
@@ -129,18 +136,8 @@ fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
 /// counted on the render's own workers, and the image stays non-negative.
 #[test]
 fn guard_events_of_a_render_reach_its_stats() {
-    use ltcguide::bsdf::MaterialKind;
     use ltcguide::render::{Budget, Method, RenderOptions, render};
-    use ltcguide::texture::Texture;
-    let mut scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
-    let floor = scene
-        .materials
-        .iter_mut()
-        .find(|m| matches!(&m.kind, MaterialKind::Diffuse { reflectance: Texture::Constant(r) } if r.x == 0.5))
-        .unwrap();
-    floor.kind = MaterialKind::Diffuse {
-        reflectance: Texture::Constant(glam::Vec3::splat(-0.5)),
-    };
+    let scene = sphere_over_plane_with_floor_reflectance(-0.5);
     for method in [Method::Pt, Method::Product] {
         let opts = RenderOptions {
             method,
