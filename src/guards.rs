@@ -8,9 +8,9 @@
 //! Code that has no counters at hand (the LTC kernels, the quadtree
 //! descent, the lobe decomposition, the emitters) records a
 //! [`GuardEvent`] in a thread-local count instead. A render runs on a pool
-//! of its own, so it drains its workers' counts when it starts and ends
-//! ([`drain_pool`]) and reports exactly its own events, even when other
-//! renders or tests run in the same process.
+//! whose threads it starts, so draining its workers' counts when it ends
+//! ([`drain_pool`]) reports exactly its own events, even when other renders
+//! or tests run in the same process.
 
 use serde::Serialize;
 use std::cell::Cell;

@@ -203,9 +203,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);
-    // The pool is the render's own, so what its workers record is this
-    // render's (see crate::guards).
-    drain_pool(&pool);
     let cpu_before = process_cpu_seconds();
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan::at(opts.snapshot_times.clone());
@@ -283,6 +280,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let seconds = clock.seconds();
     let cpu_seconds = process_cpu_seconds() - cpu_before;
     let mean = image.mean_rgb();
+    // The pool's threads were started for this render, so every event
+    // their counts hold is this render's (see crate::guards).
     let events = drain_pool(&pool);
     let guards = Guards {
         image_nonfinite_samples: counters.nonfinite_samples,
