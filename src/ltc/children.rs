@@ -103,6 +103,8 @@ fn guard4(v: [f32; 4]) -> [f32; 4] {
         .to_array()
 }
 
+/// An LTC value or input weight made usable: negatives clamped to 0, and
+/// NaN/Inf zeroed and counted.
 #[inline]
 fn guard(v: f32) -> f32 {
     if v.is_finite() {
@@ -390,15 +392,6 @@ pub struct ShadingLtc {
     total: f32,
 }
 
-fn sanitize_weight(w: f32) -> f32 {
-    if w.is_finite() {
-        w.max(0.0)
-    } else {
-        record(GuardEvent::LtcNonfinite, 1);
-        0.0
-    }
-}
-
 impl ShadingLtc {
     /// `frame` maps world ↔ shading frame; `wo_local` is ω_o in the frame the
     /// lobes were computed in (after two-sided mirroring, as `Lobes` states).
@@ -439,7 +432,7 @@ impl ShadingLtc {
             (0.0, 1.0)
         };
         let rot_t = DMat3::from_cols(DVec3::new(cp, -sp, 0.0), DVec3::new(sp, cp, 0.0), DVec3::Z);
-        let mut diffuse_weight = sanitize_weight(lobes.diffuse);
+        let mut diffuse_weight = guard(lobes.diffuse);
         // Placeholder for unused slots (never read past `glossy_count`).
         let mut glossy = [GlossyLtc {
             weight: 0.0,
@@ -457,7 +450,7 @@ impl ShadingLtc {
         }; 1];
         let mut glossy_count = 0;
         for lobe in lobes.ggx.iter().take(lobes.ggx_count.min(1)) {
-            let w = sanitize_weight(lobe.weight);
+            let w = guard(lobe.weight);
             let alpha = if lobe.alpha.is_finite() {
                 lobe.alpha
             } else {
