@@ -19,7 +19,7 @@
 //! guide has nothing to offer: `sample` returns `None` and `pdf` 0, and the
 //! caller samples the BSDF alone.
 
-use super::quadtree::{QuadTree, child_slot};
+use super::quadtree::{QuadNode, QuadTree, child_slot};
 use crate::directional::{Cell, SQUARE_TO_SOLID_ANGLE_PDF, dir_to_square, square_to_dir};
 use crate::guards::{GuardEvent, record};
 use glam::{Vec2, Vec3};
@@ -223,6 +223,7 @@ pub fn sample_descend<W: ChildWeights>(
     // leaf's radiance.
     let mut node = Some(0usize);
     let mut sums = nodes.first()?.sums;
+    prefetch_children(nodes, &nodes[0]);
     let mut cell = Cell::ROOT;
     let mut pdf = 1.0f32;
     let mut root_total = 0.0;
@@ -260,8 +261,23 @@ pub fn sample_descend<W: ChildWeights>(
             c => {
                 node = Some(c as usize);
                 sums = nodes[c as usize].sums;
+                prefetch_children(nodes, &nodes[c as usize]);
                 cell = child;
             }
+        }
+    }
+}
+
+/// Starts loading the nodes of `node`'s children. Which child the sample
+/// descent takes depends on the weights, and its node is a cache miss on a
+/// large tree: requested as soon as the parent arrives, the miss overlaps
+/// the weights (an LTC integral for the product) and the choice, instead
+/// of following them.
+#[inline(always)]
+fn prefetch_children(nodes: &[QuadNode], node: &QuadNode) {
+    for &c in &node.children {
+        if let Some(child) = nodes.get(c as usize).filter(|_| c != 0) {
+            crate::huge::prefetch(child);
         }
     }
 }
