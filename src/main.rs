@@ -32,11 +32,15 @@ enum Command {
     /// relMSE in the worst 0.1 % of pixels with relMSE over the rest (fireflies or broad noise).
     Error { image: PathBuf, reference: PathBuf },
     /// Print what a scene contains.
-    Info { scene: PathBuf },
+    Info {
+        /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
+        scene: PathBuf,
+    },
     /// Equal-time comparison of methods: error-versus-time curves, summary and images.
     Compare(CompareArgs),
     /// The paper's Table 1: cost of N spp per product kernel (naive, optimized, simd), and what the per-scene plan saves.
     Ablation {
+        /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
         scene: PathBuf,
         #[arg(long, default_value_t = 64)]
         spp: u32,
@@ -88,6 +92,7 @@ struct ProductArgs {
 
 #[derive(Args, Clone)]
 struct CompareArgs {
+    /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
     scene: PathBuf,
     /// Reference image (e.g. the pack's reference.exr, or a long ltcguide render).
     #[arg(long)]
@@ -136,7 +141,7 @@ const DEFAULT_SCENE: &str = "scenes/cornell-glossy/scene.xml";
 
 #[derive(Args, Clone)]
 struct RenderArgs {
-    /// Scene file (Mitsuba 3 XML subset).
+    /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
     #[arg(default_value = DEFAULT_SCENE)]
     scene: PathBuf,
     /// Samples per pixel.

@@ -376,3 +376,38 @@ fn loading_from_a_string_is_loading_the_file_it_names() {
     assert_eq!(err.file, elsewhere);
     assert!(err.message.contains("mesh file not found"), "{err}");
 }
+
+/// A folder stands for its `scene.xml` (the pack's layout), through the
+/// library and the CLI; a folder without one is the usual read error,
+/// naming the file that was looked for.
+#[test]
+fn a_scene_folder_loads_its_scene_xml() {
+    let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-glossy");
+    let (a, b) = (
+        load_scene(&folder).expect("the folder loads"),
+        load_scene(&folder.join("scene.xml")).unwrap(),
+    );
+    assert_eq!(a.file, b.file);
+    assert_eq!(a.name, "cornell-glossy");
+    assert_eq!(a.geometry.len(), b.geometry.len());
+    let empty = std::env::temp_dir().join(format!("ltcguide-empty-{}", std::process::id()));
+    std::fs::create_dir_all(&empty).unwrap();
+    let result = load_scene(&empty);
+    std::fs::remove_dir(&empty).unwrap();
+    let Err(err) = result else {
+        panic!("a folder without scene.xml loaded");
+    };
+    assert_eq!(err.file, empty.join("scene.xml"));
+    assert!(err.message.contains("cannot read scene file"), "{err}");
+    let out = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args(["info"])
+        .arg(&folder)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("cornell-glossy"));
+}

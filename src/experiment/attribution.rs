@@ -46,7 +46,7 @@ use std::fmt::Write;
 /// `ltcguide attribute`'s arguments.
 #[derive(clap::Args, Clone, Debug)]
 pub struct AttributeArgs {
-    /// Scene file (Mitsuba 3 XML subset).
+    /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
     pub scene: std::path::PathBuf,
     #[arg(long, default_value_t = 16)]
     pub spp: u32,

@@ -21,11 +21,24 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Loads and validates a scene file.
+/// Loads and validates a scene file, or the `scene.xml` of a folder (the
+/// pack's layout: one folder per scene).
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    let path = &scene_file(path);
     let text = std::fs::read_to_string(path)
         .map_err(|e| SceneError::new(path, 0, "scene", format!("cannot read scene file: {e}")))?;
     load_scene_from_str(&text, path)
+}
+
+/// The file a scene argument names: itself, or `scene.xml` inside it when
+/// it is a folder (a folder without one then fails to read, naming the
+/// file that was looked for).
+pub fn scene_file(path: &Path) -> PathBuf {
+    if path.is_dir() {
+        path.join("scene.xml")
+    } else {
+        path.to_path_buf()
+    }
 }
 
 /// Loads a scene from XML text as if it had been read from `path`: errors
