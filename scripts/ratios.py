@@ -2,7 +2,8 @@
 """Equal-time ratios from the compare runs: for every scene under docs/results,
 the final relMSE and MAE of product relative to radiance (and to pt when pt ran);
 with `--roulette CLASSIC_ROOT ADRRS_ROOT`, each guided method's error under ADRRS
-relative to classic roulette.
+relative to classic roulette, and pt's (the same settings in both parts) as the
+control for the drift between the parts.
 
 Two ratios per metric, because relMSE on these scenes is dominated by a few
 firefly pixels and one unlucky run can move a mean by 2x:
@@ -79,11 +80,12 @@ def roulette_vs_classic(classic_root, adrrs_root):
         if not (os.path.exists(a) and os.path.exists(c)):
             continue
         fa, fc = finals(a), finals(c)
-        for m in ("radiance", "product"):
+        # pt has Mitsuba's roulette in both parts: the control row.
+        for m, label in (("pt", "pt (control)"), ("radiance", "radiance"), ("product", "product")):
             if m in fa and m in fc:
                 col = lambda f, i: [v[i] for v in f[m]]
                 n = min(len(fa[m]), len(fc[m]))
-                print(f"| {s} | {m} | {n} | {cell(col(fa, 0), col(fc, 0))} | {cell(col(fa, 1), col(fc, 1))} |")
+                print(f"| {s} | {label} | {n} | {cell(col(fa, 0), col(fc, 0))} | {cell(col(fa, 1), col(fc, 1))} |")
 
 
 if len(sys.argv) == 4 and sys.argv[1] == "--roulette":

@@ -14,8 +14,7 @@
 #   by which commit it ran (docs/study/<rr>/<scene>/RUN), so a subset can be
 #   rerun without losing the others.
 # Needs ../shared/scenes. Takes about SCENES × 2 × RUNS × SECONDS
-# (pt, radiance and product side by side with classic roulette; radiance and
-# product side by side with ADRRS).
+# (pt, radiance and product side by side in each part).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SECONDS_PER_RUN=${1:-30}
@@ -35,9 +34,15 @@ PAGE=docs/study.md.tmp
   echo "compare runs made at different times on a shared host):"
   echo
 } > "$PAGE"
+# Every part renders the same three methods side by side, so that each render
+# of either part gets the same share of the cores (3 renders on the host's
+# cores): with pt left out of the ADRRS part, its two guided renders had 1.5×
+# the CPU of the classic part's, and the ADRRS/classic table measured that
+# too. pt keeps Mitsuba's roulette in both parts (`--guided-rr` sets the
+# guided methods' only), so its ratio between the parts is a control: the
+# drift between two runs made at different times.
+methods=pt,radiance,product
 for rr in $ROULETTES; do
-  methods=radiance,product
-  [ "$rr" = classic ] && methods=pt,radiance,product
   for scene in $SCENES; do
     echo "study: $rr $scene" >&2
     "$BIN" compare "$PACK/$scene/scene.xml" --reference "$PACK/$scene/reference.exr" \
@@ -76,6 +81,9 @@ for rr in classic adrrs; do
 done
 {
   echo "## ADRRS / classic roulette at equal time, per guided method (final relMSE, ratio of means)"
+  echo
+  echo "pt runs with Mitsuba's roulette in both parts: its row is the control, the drift between the"
+  echo "two parts' runs, which the guided methods' rows also contain."
   echo
   python3 scripts/ratios.py --roulette "$OUT/classic" "$OUT/adrrs"
   echo
