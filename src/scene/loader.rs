@@ -33,7 +33,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 /// The file a scene argument names: itself, or `scene.xml` inside it when
 /// it is a folder (a folder without one then fails to read, naming the
 /// file that was looked for).
-pub fn scene_file(path: &Path) -> PathBuf {
+fn scene_file(path: &Path) -> PathBuf {
     if path.is_dir() {
         path.join("scene.xml")
     } else {
