@@ -8,6 +8,7 @@ use glam::{DVec3, Vec2, Vec3};
 use ltc_common::*;
 use ltcguide::directional::{Cell, square_to_dir};
 use ltcguide::guards::{GuardEvent, thread_count};
+use ltcguide::guiding::product::guiding_ltc_options;
 use ltcguide::ltc::children::{LtcOptions, ProductKernel, ShadingLtc};
 use ltcguide::ltc::children_x16;
 use ltcguide::math::Frame;
@@ -335,6 +336,29 @@ fn assert_sane(s: &ShadingLtc, cell: Cell, what: &str) {
     }
 }
 
+/// Every set of switches a caller can run the stiff cases with: the API's
+/// accurate defaults, the guider's (sphere approximation from level 2,
+/// chord quads from level 4, centre rules: what every product render
+/// runs), Stokes-integrated parallels, and each with rough GGX kept glossy.
+fn stiff_options() -> Vec<LtcOptions> {
+    let stokes = LtcOptions {
+        stokes_parallels: true,
+        ..LtcOptions::default()
+    };
+    [LtcOptions::default(), guiding_ltc_options(), stokes]
+        .into_iter()
+        .flat_map(|o| {
+            [
+                o,
+                LtcOptions {
+                    rough_as_diffuse_above: 10.0,
+                    ..o
+                },
+            ]
+        })
+        .collect()
+}
+
 #[test]
 fn stiff_cases_never_produce_nan_inf_or_negative() {
     // The guards count on this thread, so the counts are this test's own.
@@ -350,7 +374,7 @@ fn stiff_cases_never_produce_nan_inf_or_negative() {
     for frame in &frames {
         for &alpha in &[None, Some(1e-4f32), Some(1e-3), Some(0.5), Some(1.0)] {
             for &theta in &[0.0, 45.0, 89.99, 90.0] {
-                for opts in [LtcOptions::default(), all_glossy()] {
+                for opts in stiff_options() {
                     let s = shading(alpha, theta, frame, &opts);
                     let p = peak(&s);
                     for depth in 0..21u32 {
@@ -401,9 +425,11 @@ fn stiff_cases_never_produce_nan_inf_or_negative() {
             let dir = dir_of(u, v);
             let frame = Frame::from_normal(dir.as_vec3().normalize());
             for &alpha in &[Some(1e-4f32), Some(0.01), None] {
-                let s = shading(alpha, 0.0, &frame, &all_glossy());
-                for d in 0..21u32 {
-                    assert_sane(&s, path(dir, d), "corner");
+                for opts in stiff_options() {
+                    let s = shading(alpha, 0.0, &frame, &opts);
+                    for d in 0..21u32 {
+                        assert_sane(&s, path(dir, d), "corner");
+                    }
                 }
             }
         }

@@ -9,7 +9,9 @@ use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
 use ltcguide::directional::{Cell, dir_to_square, square_to_dir};
 use ltcguide::guiding::descent::{self, ChildWeights};
 use ltcguide::guiding::guide::WeightModel;
-use ltcguide::guiding::product::{CosineLobes, ProductCache, ProductModel, ProductWeights};
+use ltcguide::guiding::product::{
+    CosineLobes, ProductCache, ProductModel, ProductWeights, guiding_ltc_options,
+};
 use ltcguide::guiding::quadtree::{QuadNode, QuadTree};
 use ltcguide::integrator::guide::VertexContext;
 use ltcguide::ltc::table::LtcTable;
@@ -32,6 +34,17 @@ fn paper_model(table: &LtcTable, kernel: ProductKernel) -> ProductModel<'_> {
         cosine_lobes: CosineLobes::Product,
         product_vertices: 0,
         reuse_in_pixel: false,
+    }
+}
+
+/// [`paper_model`] with the LTC options every product render runs with
+/// (`guiding_ltc_options`: sphere-clipped straddlers from level 2, chord
+/// quads from level 4, centre rules), which trade accuracy for speed: the
+/// sampler must still match its own pdf.
+fn render_options_model(table: &LtcTable) -> ProductModel<'_> {
+    ProductModel {
+        options: guiding_ltc_options(),
+        ..paper_model(table, ProductKernel::Simd)
     }
 }
 
@@ -134,6 +147,7 @@ fn material(alpha: f32, diffuse: bool) -> Material {
 }
 
 /// A shading configuration: normal, θ_o and material.
+#[derive(Clone, Copy)]
 struct Case {
     alpha: f32,
     diffuse: bool,
@@ -225,7 +239,7 @@ fn product_sampling_matches_its_pdf_chi2() {
     let table = default_ltc_table().unwrap();
     let mut rng = Rng::new(2024, 7);
     let cases = cases(&mut rng);
-    let trials = cases.len() * 3;
+    let trials = cases.len() * 4;
     let cfg = Chi2Config {
         res_x: 16,
         res_y: 32,
@@ -233,18 +247,20 @@ fn product_sampling_matches_its_pdf_chi2() {
         significance: 0.01 / trials as f64,
         min_expected: 5.0,
     };
-    for kernel in [
-        ProductKernel::Simd,
-        ProductKernel::Optimized,
-        ProductKernel::Naive,
-    ] {
-        let model = paper_model(table, kernel);
+    let models = [
+        paper_model(table, ProductKernel::Simd),
+        paper_model(table, ProductKernel::Optimized),
+        paper_model(table, ProductKernel::Naive),
+        render_options_model(table),
+    ];
+    for model in &models {
+        let kernel = model.kernel;
         // The f64 naive kernel is slow; a third of the cases suffice for it.
         let stride = if kernel == ProductKernel::Naive { 3 } else { 1 };
         for (ci, case) in cases.iter().enumerate().step_by(stride) {
             let tree = random_tree(&mut rng, 200);
             let mut cache = ProductCache::default();
-            let Some(mut w) = weights_for(case, &model, &mut rng, &mut cache) else {
+            let Some(mut w) = weights_for(case, model, &mut rng, &mut cache) else {
                 panic!("case {ci}: the product vanished for a reflective BSDF");
             };
             let mut srng = Rng::new(ci as u64, 99);
@@ -264,8 +280,8 @@ fn product_sampling_matches_its_pdf_chi2() {
             );
             assert!(
                 out.passed,
-                "{kernel:?} case {ci} (α {}, θ_o {}°, n {:?}): {}",
-                case.alpha, case.theta_o_deg, case.normal, out.message
+                "{kernel:?} {:?} case {ci} (α {}, θ_o {}°, n {:?}): {}",
+                model.options, case.alpha, case.theta_o_deg, case.normal, out.message
             );
         }
     }
@@ -278,17 +294,24 @@ fn product_sampling_matches_its_pdf_chi2() {
 #[test]
 fn sharp_product_lobes_pass_chi2_when_zoomed_in() {
     let table = default_ltc_table().unwrap();
-    let model = paper_model(table, ProductKernel::Simd);
+    let models = [
+        paper_model(table, ProductKernel::Simd),
+        render_options_model(table),
+    ];
     let mut rng = Rng::new(41, 2);
     let tree = random_tree(&mut rng, 200);
+    let lobes = [(1e-3, 10.0), (0.01, 45.0), (0.05, 80.0), (1e-3, 70.0)];
     let cfg = Chi2Config {
         res_x: 16,
         res_y: 16,
         samples: 100_000,
-        significance: 0.01 / 4.0,
+        significance: 0.01 / (lobes.len() * models.len()) as f64,
         min_expected: 5.0,
     };
-    for (alpha, theta_o_deg) in [(1e-3, 10.0), (0.01, 45.0), (0.05, 80.0), (1e-3, 70.0)] {
+    for (model, (alpha, theta_o_deg)) in models
+        .iter()
+        .flat_map(|m| lobes.iter().map(move |&l| (m, l)))
+    {
         let case = Case {
             alpha,
             diffuse: false,
@@ -296,7 +319,7 @@ fn sharp_product_lobes_pass_chi2_when_zoomed_in() {
             normal: Vec3::new(0.3, -0.4, 0.87).normalize(),
         };
         let mut cache = ProductCache::default();
-        let mut w = weights_for(&case, &model, &mut rng, &mut cache).unwrap();
+        let mut w = weights_for(&case, model, &mut rng, &mut cache).unwrap();
         // The densest terminal cell, then its deepest ancestor holding half
         // the mass.
         let mut densest = (Cell::ROOT, 0.0f64);
@@ -342,11 +365,16 @@ fn sharp_product_lobes_pass_chi2_when_zoomed_in() {
             },
             &expected,
         );
+        let deep = model.options.deep_cell_size;
         println!(
-            "α {alpha} θo {theta_o_deg}: zoom depth {} (P {p_zoom:.2}), dof {}, p {:.3}",
+            "deep size {deep} α {alpha} θo {theta_o_deg}: zoom depth {} (P {p_zoom:.2}), dof {}, p {:.3}",
             zoom.depth, out.dof, out.p_value
         );
-        assert!(out.passed, "α {alpha} θo {theta_o_deg}: {}", out.message);
+        assert!(
+            out.passed,
+            "deep size {deep} α {alpha} θo {theta_o_deg}: {}",
+            out.message
+        );
         assert!(
             out.dof >= 30,
             "α {alpha}: only {} degrees of freedom",
@@ -406,12 +434,18 @@ fn chi2_rejects_the_radiance_distribution_for_product_samples() {
 #[test]
 fn pdf_of_a_sampled_direction_is_the_returned_pdf() {
     let table = default_ltc_table().unwrap();
-    let model = paper_model(table, ProductKernel::Simd);
+    let models = [
+        paper_model(table, ProductKernel::Simd),
+        render_options_model(table),
+    ];
     let mut rng = Rng::new(5, 5);
-    for case in cases(&mut rng.clone()) {
+    for (case, model) in cases(&mut rng.clone())
+        .into_iter()
+        .flat_map(|c| models.iter().map(move |m| (c, m)))
+    {
         let tree = random_tree(&mut rng, 300);
         let mut cache = ProductCache::default();
-        let mut w = weights_for(&case, &model, &mut rng, &mut cache).unwrap();
+        let mut w = weights_for(&case, model, &mut rng, &mut cache).unwrap();
         for _ in 0..2000 {
             let (p, pdf) = descent::sample(&tree, &mut w, rng.next_2d()).unwrap();
             assert_eq!(descent::pdf(&tree, &mut w, p), pdf);
