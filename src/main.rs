@@ -38,6 +38,13 @@ enum Command {
     },
     /// Equal-time comparison of methods: error-versus-time curves, summary and images.
     Compare(CompareArgs),
+    /// Redraw a compare folder's curves.svg and time-to-error table from its curves.csv, without
+    /// rendering (for pages made before the curves' aggregation changed).
+    Replot {
+        /// Folders written by `compare --out`.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+    },
     /// The paper's Table 1: cost of N spp per product kernel (naive, optimized, simd), and what the per-scene plan saves.
     Ablation {
         /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
@@ -273,6 +280,16 @@ fn main() -> ExitCode {
         Command::Error { image, reference } => cmd_error(&image, &reference),
         Command::Info { scene } => cmd_info(&scene),
         Command::Compare(args) => cmd_compare(&args),
+        Command::Replot { dirs } => dirs.iter().try_for_each(|d| {
+            let r = ltcguide::experiment::replot::replot(d)?;
+            println!(
+                "{}: curves.svg and the time-to-error table redrawn from {} rows ({})",
+                d.display(),
+                r.rows,
+                r.methods.join(", ")
+            );
+            Ok(())
+        }),
         Command::Ablation {
             scene,
             spp,

@@ -165,6 +165,72 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         summary.contains("product: no NEE, roulette off"),
         "{summary}"
     );
+    // Each mean curve ends at the mean of its runs' final errors, the
+    // figure of the summary's table, even when the runs took different
+    // snapshots.
+    for c in &outcome.curves {
+        let finals: Vec<f64> = (0..2)
+            .map(|run| {
+                rows.iter()
+                    .rfind(|r| r.method == c.method && r.run == run)
+                    .unwrap()
+                    .relmse
+            })
+            .collect();
+        let end = c.relmse.last().unwrap().0;
+        let mean = (finals[0] + finals[1]) / 2.0;
+        assert!(
+            (end - mean).abs() <= 1e-12 * mean,
+            "{}: {end} against {mean}",
+            c.method
+        );
+    }
+    // `replot` recomputes exactly what compare wrote, from the CSV alone.
+    let svg_before = std::fs::read(dir.join("curves.svg")).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .arg("replot")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(dir.join("curves.svg")).unwrap(), svg_before);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("summary.md")).unwrap(),
+        summary
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn replot_refuses_a_folder_without_a_comparison() {
+    let dir = std::env::temp_dir().join(format!("ltcguide-replot-empty-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .arg("replot")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("curves.csv"), "{err}");
+    // A CSV without a compare summary beside it: nothing is written.
+    std::fs::write(
+        dir.join("curves.csv"),
+        format!("{CSV_HEADER}\npt,0,1.0,1,0.1,0.2\n"),
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .arg("replot")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("summary.md"));
+    assert!(!dir.join("curves.svg").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
 

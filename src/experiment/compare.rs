@@ -4,7 +4,7 @@
 //! error maps.
 
 use super::colormap::log_scale_rgb;
-use super::curves::{CurveRow, MeanCurve, mean_curve, mean_std, time_to_error, to_csv};
+use super::curves::{CurveRow, MeanCurve, mean_curve, mean_std, parse_csv, time_to_error, to_csv};
 use super::plot::curves_svg;
 use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
@@ -198,6 +198,9 @@ pub fn run_compare(
     }
     let csv = to_csv(&rows);
     write_atomic(&opts.out_dir.join("curves.csv"), csv.as_bytes())?;
+    // Every figure below comes from the rows as the CSV holds them, so that
+    // `replot` recomputes the curves and the summary exactly from the CSV.
+    let rows = parse_csv(&csv)?;
     let curves: Vec<MeanCurve> = opts
         .methods
         .iter()
@@ -385,12 +388,45 @@ fn summary_markdown(
             c.method, spp, rm, rs, mm, ms
         );
     }
+    s.push_str(&speedup_section(curves));
+    if !notes.is_empty() {
+        let _ = writeln!(s, "\n## Per-scene plan\n");
+        for n in notes {
+            let _ = writeln!(s, "- {n}");
+        }
+    }
+    if !guard_notes.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n## Guards\n\nThese runs zeroed, rejected or left out NaN/Inf or degenerate \
+             values (counts by guard, as in `render --stats-json`); their errors may be biased.\n"
+        );
+        for n in guard_notes {
+            let _ = writeln!(s, "- {n}");
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`, `<method>.exr/png` (first run), \
+         `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
+    );
+    s
+}
+
+/// Heading of the summary's time-to-error section (`replot` finds it by it).
+pub const SPEEDUP_HEADING: &str = "## Time-to-error speedup relative to `radiance`";
+
+/// The summary's time-to-error section: how much sooner each mean curve
+/// reaches `radiance`'s final mean error. Empty without a radiance curve.
+pub fn speedup_section(curves: &[MeanCurve]) -> String {
+    let mut s = String::new();
     if let Some(base) = curves.iter().find(|c| c.method == "radiance") {
-        let _ = writeln!(s, "\n## Time-to-error speedup relative to `radiance`\n");
+        let _ = writeln!(s, "\n{SPEEDUP_HEADING}\n");
         let _ = writeln!(
             s,
             "How much sooner each method's mean curve reaches the final mean error of `radiance` \
-             (ratio of times; > 1 means faster; — means it never gets there within the budget).\n"
+             and stays at or below it (ratio of times; > 1 means faster; — means it does not end \
+             there within the budget). The mean curves average the runs at common times.\n"
         );
         let _ = writeln!(s, "| method | relMSE | MAE |");
         let _ = writeln!(s, "|---|---|---|");
@@ -421,26 +457,5 @@ fn summary_markdown(
             );
         }
     }
-    if !notes.is_empty() {
-        let _ = writeln!(s, "\n## Per-scene plan\n");
-        for n in notes {
-            let _ = writeln!(s, "- {n}");
-        }
-    }
-    if !guard_notes.is_empty() {
-        let _ = writeln!(
-            s,
-            "\n## Guards\n\nThese runs zeroed, rejected or left out NaN/Inf or degenerate \
-             values (counts by guard, as in `render --stats-json`); their errors may be biased.\n"
-        );
-        for n in guard_notes {
-            let _ = writeln!(s, "- {n}");
-        }
-    }
-    let _ = writeln!(
-        s,
-        "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`, `<method>.exr/png` (first run), \
-         `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
-    );
     s
 }

@@ -71,8 +71,7 @@ pub fn mean_std(v: &[f64]) -> (f64, f64) {
     (m, var.sqrt())
 }
 
-/// A method's curve averaged over runs: snapshot k of every run is averaged
-/// (runs take their snapshots at the same nominal times).
+/// A method's curve averaged over runs, on one time axis.
 #[derive(Clone, Debug)]
 pub struct MeanCurve {
     pub method: String,
@@ -81,6 +80,17 @@ pub struct MeanCurve {
     pub relmse: Vec<(f64, f64)>,
 }
 
+/// The runs of `method` averaged at every time any of them took a
+/// snapshot, from the latest first snapshot on.
+///
+/// Runs do not take the same snapshots: an iteration may span two nominal
+/// times, and a plan's fallback restarts the image. Averaging snapshot k
+/// of every run (as this did before) therefore mixed times, and cut every
+/// run to the shortest one's count, dropping the final images of the
+/// others. Here each run's error is interpolated at the common times,
+/// log-log as in [`time_to_error`], and a run holds its final error after
+/// its own last row (its budget is spent), so the curve ends at the mean of
+/// the runs' final errors: the figure of the summary's table.
 pub fn mean_curve(rows: &[CurveRow], method: &str) -> MeanCurve {
     let mut runs: Vec<Vec<&CurveRow>> = Vec::new();
     for r in rows.iter().filter(|r| r.method == method) {
@@ -91,39 +101,85 @@ pub fn mean_curve(rows: &[CurveRow], method: &str) -> MeanCurve {
         runs[run].push(r);
     }
     runs.retain(|r| !r.is_empty());
-    let len = runs.iter().map(Vec::len).min().unwrap_or(0);
+    for run in &mut runs {
+        run.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+    }
+    let start = runs
+        .iter()
+        .map(|r| r[0].seconds)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut times: Vec<f64> = runs
+        .iter()
+        .flatten()
+        .map(|r| r.seconds)
+        .filter(|&t| t >= start)
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times.dedup();
     let mut c = MeanCurve {
         method: method.to_string(),
         seconds: Vec::new(),
         mae: Vec::new(),
         relmse: Vec::new(),
     };
-    for k in 0..len {
-        let col = |f: &dyn Fn(&CurveRow) -> f64| runs.iter().map(|r| f(r[k])).collect::<Vec<f64>>();
-        c.seconds.push(mean_std(&col(&|r| r.seconds)).0);
-        c.mae.push(mean_std(&col(&|r| r.mae)));
-        c.relmse.push(mean_std(&col(&|r| r.relmse)));
+    for t in times {
+        let at = |pick: fn(&CurveRow) -> f64| -> (f64, f64) {
+            let values: Vec<f64> = runs.iter().map(|r| value_at(r, t, pick)).collect();
+            mean_std(&values)
+        };
+        c.seconds.push(t);
+        c.mae.push(at(|r| r.mae));
+        c.relmse.push(at(|r| r.relmse));
     }
     c
 }
 
-/// First time at which a (log-log interpolated) mean curve reaches `error`,
-/// or `None` if it never does within its time range.
+/// One run's value at time `t` (rows in time order): interpolated log-log
+/// between the rows around it (linearly where a value or time is not
+/// positive), the first row's before it, the last row's after it.
+fn value_at(run: &[&CurveRow], t: f64, pick: fn(&CurveRow) -> f64) -> f64 {
+    let after = run.partition_point(|r| r.seconds <= t);
+    if after == 0 {
+        return pick(run[0]);
+    }
+    if after == run.len() {
+        return pick(run[after - 1]);
+    }
+    let (a, b) = (run[after - 1], run[after]);
+    let (ta, tb, ea, eb) = (a.seconds, b.seconds, pick(a), pick(b));
+    if ta > 0.0 && ea > 0.0 && eb > 0.0 {
+        let f = (t / ta).ln() / (tb / ta).ln();
+        (ea.ln() + f * (eb / ea).ln()).exp()
+    } else {
+        ea + (eb - ea) * (t - ta) / (tb - ta)
+    }
+}
+
+/// The time from which a (log-log interpolated) mean curve is at or below
+/// `error` up to its end, or `None` if its last point is above it.
+///
+/// Not the first time it dips below: relMSE curves are not monotone (a
+/// firefly, the combination of a new iteration, a plan's fallback that
+/// restarts the image), and a curve that dips below the target and ends
+/// above it has not reached it. So a method whose final mean error is above
+/// the target never gets there, and one whose curve is monotone gets there
+/// at its first crossing.
 pub fn time_to_error(seconds: &[f64], errors: &[f64], error: f64) -> Option<f64> {
-    if let (Some(&t0), Some(&e0)) = (seconds.first(), errors.first())
-        && e0 <= error
-    {
-        return Some(t0);
+    let n = seconds.len().min(errors.len());
+    if n == 0 || !(errors[n - 1] <= error) {
+        return None;
     }
-    for k in 1..seconds.len() {
-        let (e0, e1) = (errors[k - 1], errors[k]);
-        if e1 <= error && e0 > error && e0 > 0.0 && e1 > 0.0 {
-            let (lt0, lt1) = (seconds[k - 1].ln(), seconds[k].ln());
-            let f = (error.ln() - e0.ln()) / (e1.ln() - e0.ln());
-            return Some((lt0 + f * (lt1 - lt0)).exp());
-        }
+    let Some(k) = (0..n).rev().find(|&k| !(errors[k] <= error)) else {
+        return Some(seconds[0]);
+    };
+    let (e0, e1) = (errors[k], errors[k + 1]);
+    let (t0, t1) = (seconds[k], seconds[k + 1]);
+    if e0 > 0.0 && e1 > 0.0 && error > 0.0 && t0 > 0.0 {
+        let f = (error.ln() - e0.ln()) / (e1.ln() - e0.ln());
+        Some((t0.ln() + f * (t1 / t0).ln()).exp())
+    } else {
+        Some(t1)
     }
-    None
 }
 
 #[cfg(test)]
@@ -155,6 +211,57 @@ mod tests {
         assert!(parse_csv("nope\n").is_err());
     }
 
+    fn row(run: u32, seconds: f64, error: f64) -> CurveRow {
+        CurveRow {
+            method: "m".into(),
+            run,
+            seconds,
+            spp: 1,
+            mae: error,
+            relmse: error,
+        }
+    }
+
+    /// Runs that took different snapshots are averaged at common times,
+    /// not snapshot by snapshot, and the curve ends at the mean of the
+    /// runs' final errors. Run 1 missed the snapshot at 2 s and ends later.
+    #[test]
+    fn runs_with_different_snapshots_are_averaged_at_common_times() {
+        let mut rows: Vec<CurveRow> = [1.0, 2.0, 4.0, 8.0]
+            .iter()
+            .map(|&t| row(0, t, 1.0 / t))
+            .collect();
+        rows.extend([1.0, 4.0, 8.5].iter().map(|&t| row(1, t, 2.0 / t)));
+        let c = mean_curve(&rows, "m");
+        assert_eq!(c.seconds, vec![1.0, 2.0, 4.0, 8.0, 8.5]);
+        // At 2 s run 1 lies on its log-log segment 2/t: 1.0; run 0 is 0.5.
+        assert!((c.relmse[1].0 - 0.75).abs() < 1e-12, "{:?}", c.relmse);
+        // At 4 s both took a snapshot: 0.25 and 0.5.
+        assert!((c.mae[2].0 - 0.375).abs() < 1e-12);
+        // After 8 s run 0 holds its final 1/8; run 1 ends at 2/8.5.
+        let end = (0.125 + 2.0 / 8.5) / 2.0;
+        assert!((c.relmse[4].0 - end).abs() < 1e-12);
+        // The old snapshot-by-snapshot mean stopped at 3 points and put
+        // run 0's 2 s snapshot beside run 1's 4 s one.
+        assert_eq!(c.seconds.len(), 5);
+        // A curve that ends below another's final error reaches it.
+        let base_final = 0.2;
+        let errs: Vec<f64> = c.relmse.iter().map(|e| e.0).collect();
+        assert!(end < base_final && time_to_error(&c.seconds, &errs, base_final).is_some());
+    }
+
+    /// A run that starts later than the others starts the curve: before
+    /// its first row no mean over all runs exists.
+    #[test]
+    fn the_curve_starts_when_every_run_has_a_value() {
+        let rows = vec![row(0, 0.5, 4.0), row(0, 1.0, 2.0), row(1, 1.5, 1.0)];
+        let c = mean_curve(&rows, "m");
+        assert_eq!(c.seconds, vec![1.5]);
+        // Run 0 holds its last value 2.0 after 1 s.
+        assert_eq!(c.relmse[0].0, 1.5);
+        assert!(mean_curve(&rows, "other").seconds.is_empty());
+    }
+
     #[test]
     fn time_to_error_interpolates_in_log_log() {
         // error = 1/t: reaching 0.25 takes t = 4, between samples at 2 and 8.
@@ -163,6 +270,14 @@ mod tests {
         assert!((time_to_error(&t, &e, 0.25).unwrap() - 4.0).abs() < 1e-9);
         assert_eq!(time_to_error(&t, &e, 2.0), Some(1.0));
         assert_eq!(time_to_error(&t, &e, 0.01), None);
+        // A curve that dips below the target and rises above it again
+        // reaches it at its last crossing, not its first; one that ends
+        // above it never does.
+        let t = [1.0, 2.0, 4.0, 8.0];
+        let e = [1.0, 0.1, 0.5, 0.125];
+        assert!((time_to_error(&t, &e, 0.25).unwrap() - 4.0 * 2f64.sqrt()).abs() < 1e-9);
+        assert_eq!(time_to_error(&t[..3], &e[..3], 0.25), None);
+        assert_eq!(time_to_error(&[], &[], 1.0), None);
         let (m, s) = mean_std(&[1.0, 2.0, 3.0]);
         assert_eq!((m, s), (2.0, 1.0));
     }

@@ -8,3 +8,4 @@ pub mod compare;
 pub mod curves;
 pub mod pixel_classes;
 pub mod plot;
+pub mod replot;

@@ -1,0 +1,128 @@
+//! Redraws a comparison's mean curves and its time-to-error table from the
+//! runs' `curves.csv`, without rendering again. The CSV keeps every
+//! snapshot of every run, so whatever the aggregation computes can be
+//! recomputed from it: pages made before the aggregation was fixed are
+//! corrected this way rather than by hours of new renders.
+
+use super::compare::{SPEEDUP_HEADING, speedup_section};
+use super::curves::{MeanCurve, mean_curve, parse_csv};
+use super::plot::curves_svg;
+use crate::film::write_atomic;
+use std::path::Path;
+
+/// What [`replot`] rewrote in one comparison folder.
+#[derive(Debug)]
+pub struct Replotted {
+    pub rows: usize,
+    pub methods: Vec<String>,
+    /// The summary's time-to-error section before and after (empty when
+    /// the summary has none, i.e. no radiance runs).
+    pub old_section: String,
+    pub new_section: String,
+}
+
+/// Rewrites `dir/curves.svg` and the time-to-error section of
+/// `dir/summary.md` from `dir/curves.csv`. Both files must exist (a
+/// `compare` output folder); nothing is written when either cannot be read
+/// or parsed.
+pub fn replot(dir: &Path) -> Result<Replotted, String> {
+    let read = |name: &str| {
+        let path = dir.join(name);
+        std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let csv = read("curves.csv")?;
+    let summary = read("summary.md")?;
+    let rows = parse_csv(&csv).map_err(|e| format!("{}: {e}", dir.join("curves.csv").display()))?;
+    if rows.is_empty() {
+        return Err(format!("{}: no rows", dir.join("curves.csv").display()));
+    }
+    let mut methods: Vec<String> = Vec::new();
+    for r in &rows {
+        if !methods.contains(&r.method) {
+            methods.push(r.method.clone());
+        }
+    }
+    let curves: Vec<MeanCurve> = methods.iter().map(|m| mean_curve(&rows, m)).collect();
+    let name = summary
+        .lines()
+        .next()
+        .and_then(|l| l.strip_prefix("# "))
+        .and_then(|l| l.strip_suffix(": equal-time comparison"))
+        .ok_or_else(|| {
+            format!(
+                "{}: not a compare summary (its first line should be '# SCENE: equal-time comparison')",
+                dir.join("summary.md").display()
+            )
+        })?;
+    let mut runs: Vec<u32> = rows.iter().map(|r| r.run).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    let svg = curves_svg(
+        &format!("{name} — error vs time ({} runs)", runs.len()),
+        &curves,
+    )?;
+    let new_section = speedup_section(&curves);
+    let (old_section, new_summary) = replace_speedup_section(&summary, &new_section)
+        .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;
+    write_atomic(&dir.join("curves.svg"), svg.as_bytes())?;
+    write_atomic(&dir.join("summary.md"), new_summary.as_bytes())?;
+    Ok(Replotted {
+        rows: rows.len(),
+        methods,
+        old_section,
+        new_section,
+    })
+}
+
+/// The summary with its time-to-error section (from its heading to the next
+/// heading or the closing "Files:" line) replaced by `section`, and the
+/// section it held. A summary without the section must get none.
+fn replace_speedup_section(summary: &str, section: &str) -> Result<(String, String), String> {
+    let Some(start) = summary.find(&format!("\n{SPEEDUP_HEADING}\n")) else {
+        if section.is_empty() {
+            return Ok((String::new(), summary.to_string()));
+        }
+        return Err("no time-to-error section to replace".into());
+    };
+    let rest = &summary[start + 1..];
+    let end = [rest.find("\n## "), rest.find("\nFiles:")]
+        .into_iter()
+        .flatten()
+        .min()
+        .map_or(summary.len(), |i| start + 1 + i);
+    let old = summary[start..end].to_string();
+    let mut s = String::with_capacity(summary.len());
+    s.push_str(&summary[..start]);
+    s.push_str(section);
+    s.push_str(&summary[end..]);
+    Ok((old, s))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_section_is_replaced_between_its_heading_and_the_next() {
+        let summary = format!(
+            "# s: equal-time comparison\n\n| table |\n\n{SPEEDUP_HEADING}\n\nold\n| pt | 1× |\n\n## Per-scene plan\n\n- x\n\nFiles: y\n"
+        );
+        let new = format!("\n{SPEEDUP_HEADING}\n\nnew\n");
+        let (old, s) = replace_speedup_section(&summary, &new).unwrap();
+        assert_eq!(old, format!("\n{SPEEDUP_HEADING}\n\nold\n| pt | 1× |\n"));
+        assert_eq!(
+            s,
+            format!(
+                "# s: equal-time comparison\n\n| table |\n\n{SPEEDUP_HEADING}\n\nnew\n\n## Per-scene plan\n\n- x\n\nFiles: y\n"
+            )
+        );
+        // Without a later heading, the section ends at "Files:".
+        let short = format!("a\n{SPEEDUP_HEADING}\n\nold\n\nFiles: y\n");
+        let (old, s) = replace_speedup_section(&short, &new).unwrap();
+        assert_eq!(old, format!("\n{SPEEDUP_HEADING}\n\nold\n"));
+        assert_eq!(s, format!("a{new}\nFiles: y\n"));
+        // No radiance runs: no section before or after.
+        assert_eq!(replace_speedup_section("a\n", "").unwrap().1, "a\n");
+        assert!(replace_speedup_section("a\n", &new).is_err());
+    }
+}
