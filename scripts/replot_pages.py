@@ -63,7 +63,9 @@ def main():
                 f"when runs took different numbers of them), and a method reaches an error when its "
                 f"curve stays at or below it.\n")
         lines = text.splitlines(keepends=True)
-        lines = [l for l in lines if not l.startswith(MARK)]
+        # An earlier note goes with the blank line it brought.
+        for i in reversed([i for i, l in enumerate(lines) if l.startswith(MARK)]):
+            del lines[i:i + 2 if i + 1 < len(lines) and lines[i + 1] == "\n" else i + 1]
         # A paragraph of its own at the end of the preamble (before the first section).
         at = next((i for i, l in enumerate(lines) if l.startswith("## ")), len(lines))
         lines[at:at] = [note, "\n"]
