@@ -187,11 +187,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     }
     // `replot` recomputes exactly what compare wrote, from the CSV alone.
     let svg_before = std::fs::read(dir.join("curves.svg")).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
-        .arg("replot")
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let out = run_replot(&dir);
     assert!(
         out.status.success(),
         "{}",
@@ -205,15 +201,20 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `ltcguide replot DIR` through the CLI.
+fn run_replot(dir: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .arg("replot")
+        .arg(dir)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn replot_refuses_a_folder_without_a_comparison() {
     let dir = std::env::temp_dir().join(format!("ltcguide-replot-empty-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
-        .arg("replot")
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let out = run_replot(&dir);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("curves.csv"), "{err}");
@@ -223,11 +224,7 @@ fn replot_refuses_a_folder_without_a_comparison() {
         format!("{CSV_HEADER}\npt,0,1.0,1,0.1,0.2\n"),
     )
     .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
-        .arg("replot")
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let out = run_replot(&dir);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("summary.md"));
     assert!(!dir.join("curves.svg").exists());
