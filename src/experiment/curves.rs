@@ -40,9 +40,13 @@ pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
             if f.len() != 6 {
                 return Err(format!("bad row '{l}'"));
             }
-            let num = |s: &str| {
-                s.parse::<f64>()
-                    .map_err(|_| format!("bad number '{s}' in '{l}'"))
+            // Times and errors are finite and non-negative: a NaN or a
+            // negative error would pass silently into every mean and plot.
+            let num = |s: &str| match s.parse::<f64>() {
+                Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+                _ => Err(format!(
+                    "bad number '{s}' in '{l}' (a finite value ≥ 0 expected)"
+                )),
             };
             Ok(CurveRow {
                 method: f[0].to_string(),
@@ -92,15 +96,12 @@ pub struct MeanCurve {
 /// its own last row (its budget is spent), so the curve ends at the mean of
 /// the runs' final errors: the figure of the summary's table.
 pub fn mean_curve(rows: &[CurveRow], method: &str) -> MeanCurve {
-    let mut runs: Vec<Vec<&CurveRow>> = Vec::new();
+    // By run id; a map, since ids come from a CSV and need not be dense.
+    let mut by_run: std::collections::BTreeMap<u32, Vec<&CurveRow>> = Default::default();
     for r in rows.iter().filter(|r| r.method == method) {
-        let run = r.run as usize;
-        if runs.len() <= run {
-            runs.resize(run + 1, Vec::new());
-        }
-        runs[run].push(r);
+        by_run.entry(r.run).or_default().push(r);
     }
-    runs.retain(|r| !r.is_empty());
+    let mut runs: Vec<Vec<&CurveRow>> = by_run.into_values().collect();
     for run in &mut runs {
         run.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
     }
@@ -209,6 +210,14 @@ mod tests {
         // std of {0.1, 0.11} = 0.00707…
         assert!((c.mae[0].1 - 0.01 / 2f64.sqrt()).abs() < 1e-12);
         assert!(parse_csv("nope\n").is_err());
+        for bad in ["NaN", "inf", "-0.5", "x"] {
+            let text = format!("{CSV_HEADER}\npt,0,1.0,4,{bad},0.1\n");
+            assert!(parse_csv(&text).unwrap_err().contains(bad), "{bad}");
+        }
+        // Sparse run ids are runs like any other.
+        let sparse = format!("{CSV_HEADER}\npt,4000000000,1.0,4,0.1,0.2\npt,7,1.0,4,0.3,0.4\n");
+        let c = mean_curve(&parse_csv(&sparse).unwrap(), "pt");
+        assert!((c.mae[0].0 - 0.2).abs() < 1e-12, "{:?}", c.mae);
     }
 
     fn row(run: u32, seconds: f64, error: f64) -> CurveRow {
