@@ -206,10 +206,7 @@ pub fn run_compare(
         .iter()
         .map(|&m| mean_curve(&rows, &method_name(m)))
         .collect();
-    let svg = curves_svg(
-        &format!("{} — error vs time ({} runs)", scene.name, opts.runs),
-        &curves,
-    )?;
+    let svg = curves_svg(&curves_title(&scene.name, opts.runs as usize), &curves)?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
     let summary = summary_markdown(scene, opts, &rows, &curves, &notes, &guard_notes);
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
@@ -319,7 +316,7 @@ fn summary_markdown(
             total_threads(opts)
         )
     };
-    let _ = writeln!(s, "# {}: equal-time comparison\n", scene.name);
+    let _ = writeln!(s, "# {}{SUMMARY_TITLE_SUFFIX}\n", scene.name);
     let _ = writeln!(
         s,
         "Budget {:.1} s per run (training included), {} runs per method (seeds 1000…), {}, {}.\n",
@@ -411,6 +408,15 @@ fn summary_markdown(
          `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
     );
     s
+}
+
+/// What follows the scene's name in the summary's first line, "# NAME…"
+/// (`replot` reads the name back from it).
+pub const SUMMARY_TITLE_SUFFIX: &str = ": equal-time comparison";
+
+/// Title of `curves.svg` for `runs` runs on `scene`.
+pub fn curves_title(scene: &str, runs: usize) -> String {
+    format!("{scene} — error vs time ({runs} runs)")
 }
 
 /// Heading of the summary's time-to-error section (`replot` finds it by it).

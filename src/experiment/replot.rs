@@ -4,7 +4,7 @@
 //! recomputed from it: pages made before the aggregation was fixed are
 //! corrected this way rather than by hours of new renders.
 
-use super::compare::{SPEEDUP_HEADING, speedup_section};
+use super::compare::{SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section};
 use super::curves::{MeanCurve, mean_curve, parse_csv};
 use super::plot::curves_svg;
 use crate::film::write_atomic;
@@ -47,20 +47,17 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
         .lines()
         .next()
         .and_then(|l| l.strip_prefix("# "))
-        .and_then(|l| l.strip_suffix(": equal-time comparison"))
+        .and_then(|l| l.strip_suffix(SUMMARY_TITLE_SUFFIX))
         .ok_or_else(|| {
             format!(
-                "{}: not a compare summary (its first line should be '# SCENE: equal-time comparison')",
+                "{}: not a compare summary (its first line should be '# SCENE{SUMMARY_TITLE_SUFFIX}')",
                 dir.join("summary.md").display()
             )
         })?;
     let mut runs: Vec<u32> = rows.iter().map(|r| r.run).collect();
     runs.sort_unstable();
     runs.dedup();
-    let svg = curves_svg(
-        &format!("{name} — error vs time ({} runs)", runs.len()),
-        &curves,
-    )?;
+    let svg = curves_svg(&curves_title(name, runs.len()), &curves)?;
     let new_section = speedup_section(&curves);
     let (old_section, new_summary) = replace_speedup_section(&summary, &new_section)
         .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;
