@@ -1,66 +1,17 @@
 //! `compare` on a tiny scene with a tiny budget writes well-formed files,
 //! and refuses a reference of the wrong size.
 
+mod common;
+
+use common::study::{compare_options, flat_reference, settings, tiny};
 use ltcguide::experiment::compare::{CompareOptions, run_compare};
 use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
 use ltcguide::film::exr_io::write_rgb;
 use ltcguide::film::image::Image;
-use ltcguide::guiding::product::CosineLobes;
-use ltcguide::integrator::path::{PathSettings, RouletteMode};
+use ltcguide::integrator::path::RouletteMode;
 use ltcguide::render::{Budget, Method, RenderOptions, render};
-use ltcguide::scene::{Scene, load_scene};
+use ltcguide::scene::Scene;
 use std::path::Path;
-
-fn settings(scene: &Scene, method: Method) -> PathSettings {
-    PathSettings {
-        nee: method == Method::Pt,
-        max_depth: scene.max_depth,
-        roulette: if method == Method::Pt {
-            RouletteMode::Classic
-        } else {
-            RouletteMode::Adrrs
-        },
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    }
-}
-
-fn tiny() -> Scene {
-    load_scene(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/analytic/sphere_over_plane.xml"),
-    )
-    .unwrap()
-}
-
-/// The options every test starts from: `methods` for one run of 0.2 s
-/// into `out_dir`, the paper's NEE choice, no roulette override, product
-/// guiding's defaults, methods one after the other, no progress.
-fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
-    CompareOptions {
-        methods,
-        seconds: 0.2,
-        runs: 1,
-        threads: 0,
-        out_dir: out_dir.to_path_buf(),
-        path_for: settings,
-        nee: ltcguide::experiment::compare::NeeChoice::Paper,
-        guided_roulette: None,
-        cosine_lobes: CosineLobes::Radiance,
-        product_vertices: 1,
-        pixel_reuse: true,
-        side_by_side: false,
-        use_plan: true,
-        progress: false,
-    }
-}
-
-/// A uniform 64×64 reference, the tiny scene's size.
-fn flat_reference() -> Image {
-    Image {
-        width: 64,
-        height: 64,
-        pixels: vec![glam::Vec3::splat(0.5); 64 * 64],
-    }
-}
 
 #[test]
 fn compare_writes_well_formed_csv_svg_and_summary() {
@@ -82,6 +33,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     let opts = CompareOptions {
         seconds: 0.6,
         runs: 2,
+        first_run: 0,
         guided_roulette: Some((RouletteMode::Off, 5.0)),
         use_plan: false,
         ..compare_options(methods.clone(), &dir)
@@ -311,6 +263,7 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
     let opts = CompareOptions {
         seconds: 0.3,
         runs: 2,
+        first_run: 0,
         threads: 2,
         nee: ltcguide::experiment::compare::NeeChoice::All,
         side_by_side: true,

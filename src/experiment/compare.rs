@@ -4,7 +4,9 @@
 //! error maps.
 
 use super::colormap::log_scale_rgb;
-use super::curves::{CurveRow, MeanCurve, mean_curve, mean_std, parse_csv, time_to_error, to_csv};
+use super::curves::{
+    CurveRow, MeanCurve, mean_curve, mean_std, parse_csv, run_numbers, time_to_error, to_csv,
+};
 use super::plot::curves_svg;
 use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
@@ -26,6 +28,9 @@ pub struct CompareOptions {
     pub methods: Vec<Method>,
     pub seconds: f64,
     pub runs: u32,
+    /// The first run's number: runs first_run.. take seeds 1000 + run, so a
+    /// later study can add runs with new seeds to an earlier one (`merge`).
+    pub first_run: u32,
     pub threads: usize,
     pub out_dir: PathBuf,
     /// Path settings per method (NEE and roulette differ by method).
@@ -117,6 +122,12 @@ pub fn run_compare(
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
     }
+    if opts.first_run.checked_add(opts.runs).is_none() {
+        return Err(format!(
+            "runs {} to {} + {} do not fit the run numbers",
+            opts.first_run, opts.first_run, opts.runs
+        ));
+    }
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
     let mut rows = Vec::new();
@@ -126,12 +137,12 @@ pub fn run_compare(
     // study, and interleaving makes every method's runs meet the same drift
     // instead of one method taking the quiet start and another the busy end.
     // Side by side, the methods of a run also share every moment of it.
-    for run in 0..opts.runs {
+    for (index, run) in (opts.first_run..opts.first_run + opts.runs).enumerate() {
         let results = if opts.side_by_side {
             if opts.progress {
                 eprintln!(
                     "compare: run {} of {}, {} methods side by side, each on {} of {} threads, {:.0} s",
-                    run + 1,
+                    index + 1,
                     opts.runs,
                     opts.methods.len(),
                     side_by_side_threads(opts),
@@ -153,7 +164,7 @@ pub fn run_compare(
                         eprintln!(
                             "compare: {}, run {} of {}, {:.0} s",
                             method_name(m),
-                            run + 1,
+                            index + 1,
                             opts.runs,
                             opts.seconds
                         );
@@ -188,7 +199,7 @@ pub fn run_compare(
                 let seed = result.stats.seed;
                 guard_notes.push(format!("{name}, seed {seed}: {}", guards.describe()));
             }
-            if run == 0 {
+            if index == 0 {
                 write_final_images(&opts.out_dir, &name, &result.image, reference)?;
                 if let Some(plan) = &result.stats.plan {
                     notes.push(format!("{name}: {plan}"));
@@ -217,12 +228,17 @@ pub fn run_compare(
     })
 }
 
-/// Each method's render options in run `run` (seed 1000 + run).
+/// The seed of run `run`.
+pub fn run_seed(run: u32) -> u64 {
+    1000 + run as u64
+}
+
+/// Each method's render options in run `run`.
 fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -> RenderOptions {
     RenderOptions {
         method,
         budget: Budget::Seconds(opts.seconds),
-        seed: 1000 + run as u64,
+        seed: run_seed(run),
         threads: if opts.side_by_side {
             side_by_side_threads(opts)
         } else {
@@ -319,9 +335,9 @@ fn summary_markdown(
     let _ = writeln!(s, "# {}{SUMMARY_TITLE_SUFFIX}\n", scene.name);
     let _ = writeln!(
         s,
-        "Budget {:.1} s per run (training included), {} runs per method (seeds 1000…), {}, {}.\n",
+        "Budget {:.1} s per run (training included), {}, {}, {}.\n",
         opts.seconds,
-        opts.runs,
+        runs_phrase(rows),
         threads,
         cpu_model()
     );
@@ -360,31 +376,7 @@ fn summary_markdown(
             "off (every method as such throughout)"
         }
     );
-    let _ = writeln!(
-        s,
-        "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|");
-    let finals = |m: &str| -> Vec<&CurveRow> {
-        let mut last: Vec<&CurveRow> = Vec::new();
-        for run in 0..opts.runs {
-            if let Some(r) = rows.iter().rfind(|r| r.method == m && r.run == run) {
-                last.push(r);
-            }
-        }
-        last
-    };
-    for c in curves {
-        let f = finals(&c.method);
-        let (rm, rs) = mean_std(&f.iter().map(|r| r.relmse).collect::<Vec<_>>());
-        let (mm, ms) = mean_std(&f.iter().map(|r| r.mae).collect::<Vec<_>>());
-        let spp = f.iter().map(|r| r.spp as f64).sum::<f64>() / f.len().max(1) as f64;
-        let _ = writeln!(
-            s,
-            "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |",
-            c.method, spp, rm, rs, mm, ms
-        );
-    }
+    s.push_str(&final_errors_table(rows, curves));
     s.push_str(&speedup_section(curves));
     if !notes.is_empty() {
         let _ = writeln!(s, "\n## Per-scene plan\n");
@@ -407,6 +399,59 @@ fn summary_markdown(
         "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`, `<method>.exr/png` (first run), \
          `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
     );
+    s
+}
+
+/// The seeds of runs `runs` (increasing): a range where they are
+/// consecutive, else each of them.
+pub fn seeds_phrase(runs: &[u32]) -> String {
+    let seeds: Vec<u64> = runs.iter().map(|&r| run_seed(r)).collect();
+    match seeds.as_slice() {
+        [] => String::from("none"),
+        [one] => one.to_string(),
+        [first, .., last] if last - first + 1 == seeds.len() as u64 => format!("{first}–{last}"),
+        _ => seeds
+            .iter()
+            .map(u64::to_string)
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
+/// "N runs per method (seeds …)" for the runs the rows hold.
+pub fn runs_phrase(rows: &[CurveRow]) -> String {
+    let runs = run_numbers(rows);
+    format!(
+        "{} runs per method (seeds {})",
+        runs.len(),
+        seeds_phrase(&runs)
+    )
+}
+
+/// The table of final errors: per method, the mean spp and the mean and
+/// standard deviation over its runs of their last rows' relMSE and MAE.
+pub fn final_errors_table(rows: &[CurveRow], curves: &[MeanCurve]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|");
+    let runs = run_numbers(rows);
+    for c in curves {
+        let finals: Vec<&CurveRow> = runs
+            .iter()
+            .filter_map(|&run| rows.iter().rfind(|r| r.method == c.method && r.run == run))
+            .collect();
+        let (rm, rs) = mean_std(&finals.iter().map(|r| r.relmse).collect::<Vec<_>>());
+        let (mm, ms) = mean_std(&finals.iter().map(|r| r.mae).collect::<Vec<_>>());
+        let spp = finals.iter().map(|r| r.spp as f64).sum::<f64>() / finals.len().max(1) as f64;
+        let _ = writeln!(
+            s,
+            "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |",
+            c.method, spp, rm, rs, mm, ms
+        );
+    }
     s
 }
 

@@ -13,6 +13,25 @@ pub struct CurveRow {
     pub relmse: f64,
 }
 
+/// The run numbers the rows hold, in increasing order.
+pub fn run_numbers(rows: &[CurveRow]) -> Vec<u32> {
+    let mut runs: Vec<u32> = rows.iter().map(|r| r.run).collect();
+    runs.sort_unstable();
+    runs.dedup();
+    runs
+}
+
+/// The methods of the rows, in their order of first appearance.
+pub fn methods_in_order(rows: &[CurveRow]) -> Vec<String> {
+    let mut methods: Vec<String> = Vec::new();
+    for r in rows {
+        if !methods.contains(&r.method) {
+            methods.push(r.method.clone());
+        }
+    }
+    methods
+}
+
 pub const CSV_HEADER: &str = "method,run,seconds,spp,mae,relmse";
 
 pub fn to_csv(rows: &[CurveRow]) -> String {

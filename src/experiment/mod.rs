@@ -6,6 +6,7 @@ pub mod attribution;
 pub mod colormap;
 pub mod compare;
 pub mod curves;
+pub mod merge;
 pub mod pixel_classes;
 pub mod plot;
 pub mod replot;

@@ -5,7 +5,7 @@
 //! corrected this way rather than by hours of new renders.
 
 use super::compare::{SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section};
-use super::curves::{MeanCurve, mean_curve, parse_csv};
+use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
 use super::plot::curves_svg;
 use crate::film::write_atomic;
 use std::path::Path;
@@ -36,12 +36,7 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
     if rows.is_empty() {
         return Err(format!("{}: no rows", dir.join("curves.csv").display()));
     }
-    let mut methods: Vec<String> = Vec::new();
-    for r in &rows {
-        if !methods.contains(&r.method) {
-            methods.push(r.method.clone());
-        }
-    }
+    let methods = methods_in_order(&rows);
     let curves: Vec<MeanCurve> = methods.iter().map(|m| mean_curve(&rows, m)).collect();
     let name = summary
         .lines()
@@ -54,10 +49,7 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
                 dir.join("summary.md").display()
             )
         })?;
-    let mut runs: Vec<u32> = rows.iter().map(|r| r.run).collect();
-    runs.sort_unstable();
-    runs.dedup();
-    let svg = curves_svg(&curves_title(name, runs.len()), &curves)?;
+    let svg = curves_svg(&curves_title(name, run_numbers(&rows).len()), &curves)?;
     let new_section = speedup_section(&curves);
     let (old_section, new_summary) = replace_speedup_section(&summary, &new_section)
         .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;

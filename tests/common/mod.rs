@@ -3,6 +3,8 @@
 //! rendering with statistics.
 #![allow(dead_code)]
 
+pub mod study;
+
 use ltcguide::film::compare::{BlockComparison, compare_blocks};
 use ltcguide::film::exr_io::read_image;
 use ltcguide::film::image::Image;

@@ -3,8 +3,9 @@
 // `!(x > 0.0)` rejects NaN with the non-positive values (as in the library).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod study_commands;
+
 use clap::{Args, Parser, Subcommand};
-use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::{read_valid_image, write_rgb};
 use ltcguide::film::metrics::{mae, relmse, relmse_tail};
 use ltcguide::film::png_io::write_png;
@@ -37,13 +38,24 @@ enum Command {
         scene: PathBuf,
     },
     /// Equal-time comparison of methods: error-versus-time curves, summary and images.
-    Compare(CompareArgs),
+    Compare(study_commands::CompareArgs),
     /// Redraw a compare folder's curves.svg and time-to-error table from its curves.csv, without
     /// rendering (for pages made before the curves' aggregation changed).
     Replot {
         /// Folders written by `compare --out`.
         #[arg(required = true)]
         dirs: Vec<PathBuf>,
+    },
+    /// Pool the runs of several comparisons of one scene (same budget, methods and settings,
+    /// different seeds: `compare --first-run`) into one folder: curves, summary and
+    /// time-to-error table recomputed from the pooled curves.csv.
+    Merge {
+        /// Output folder (may be one of the sources; their images stay where they are).
+        #[arg(long)]
+        out: PathBuf,
+        /// Folders written by `compare --out`.
+        #[arg(required = true, num_args = 2..)]
+        sources: Vec<PathBuf>,
     },
     /// The paper's Table 1: cost of N spp per product kernel (naive, optimized, simd), and what the per-scene plan saves.
     Ablation {
@@ -73,20 +85,20 @@ enum Command {
 
 /// Product guiding's settings, shared by render and compare.
 #[derive(Args, Clone, Debug)]
-struct ProductArgs {
+pub struct ProductArgs {
     /// Product guiding at vertices whose lobes are all cosines (diffuse,
     /// GGX with α > 0.5): `radiance` weights (default; the cosine product
     /// measured at half their efficiency, docs/results-reading.md) or the
     /// paper's cosine `product`.
     #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
-    cosine_lobes: CosineLobes,
+    pub cosine_lobes: CosineLobes,
     /// Product guiding: the first N vertices of each path take product
     /// weights, deeper ones radiance weights (default 1: deeper vertices'
     /// product measured at 13–32 % of the run's CPU for no resolvable
     /// variance, docs/results-reading.md); 0 = every vertex, the paper's
     /// setting.
     #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
-    product_vertices: u32,
+    pub product_vertices: u32,
     /// Product guiding: every path computes its own first product lobe, as
     /// in the paper. By default the paths of a pixel and of its neighbours
     /// in a row block reuse a first vertex's lobe and its child integrals
@@ -94,54 +106,7 @@ struct ProductArgs {
     /// within α/10); product then runs at 0.84–0.93× radiance guiding's
     /// spp/s on staircase, about 0.88× on average (docs/results-reading.md).
     #[arg(long)]
-    no_pixel_reuse: bool,
-}
-
-#[derive(Args, Clone)]
-struct CompareArgs {
-    /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
-    scene: PathBuf,
-    /// Reference image (e.g. the pack's reference.exr, or a long ltcguide render).
-    #[arg(long)]
-    reference: PathBuf,
-    /// Wall-clock budget per run in seconds, training included.
-    #[arg(long)]
-    time: f64,
-    /// Methods to compare, comma separated.
-    #[arg(long, value_delimiter = ',', default_value = "pt,radiance")]
-    methods: Vec<Method>,
-    /// Runs per method (different seeds).
-    #[arg(long, default_value_t = 3)]
-    runs: u32,
-    #[arg(long, default_value_t = 0)]
-    threads: usize,
-    /// Which methods use next-event estimation.
-    #[arg(long, value_enum, default_value_t = NeeChoice::Paper)]
-    nee: NeeChoice,
-    /// Russian roulette of the guided methods (pt keeps Mitsuba's classic
-    /// rule). The paper's setting is adrrs; with NEE, adrrs's weight window
-    /// can cost more variance than the time it saves (docs/results-reading.md).
-    #[arg(long, value_enum, default_value_t = RouletteMode::Adrrs)]
-    guided_rr: RouletteMode,
-    /// ADRRS's weight-window ratio s for the guided methods (as for render).
-    #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
-    adrrs_window: f32,
-    #[command(flatten)]
-    product: ProductArgs,
-    /// Render the methods of each run at the same time, each on an equal
-    /// share of --threads (at least one), instead of one after the other: on
-    /// a shared host every method then meets the same load, so their ratios
-    /// are side-by-side measurements.
-    #[arg(long)]
-    side_by_side: bool,
-    /// Run every method as such throughout, as `render --no-plan` does: no
-    /// run falls back to path tracing or to cheaper weights, so the
-    /// methods themselves are compared.
-    #[arg(long)]
-    no_plan: bool,
-    /// Output directory.
-    #[arg(long)]
-    out: PathBuf,
+    pub no_pixel_reuse: bool,
 }
 
 const DEFAULT_SCENE: &str = "scenes/cornell-glossy/scene.xml";
@@ -279,23 +244,15 @@ fn main() -> ExitCode {
         Command::Render(args) => cmd_render(&args),
         Command::Error { image, reference } => cmd_error(&image, &reference),
         Command::Info { scene } => cmd_info(&scene),
-        Command::Compare(args) => cmd_compare(&args),
-        Command::Replot { dirs } => dirs.iter().try_for_each(|d| {
-            let r = ltcguide::experiment::replot::replot(d)?;
-            println!(
-                "{}: curves.svg and the time-to-error table redrawn from {} rows ({})",
-                d.display(),
-                r.rows,
-                r.methods.join(", ")
-            );
-            Ok(())
-        }),
+        Command::Compare(args) => study_commands::cmd_compare(&args),
+        Command::Replot { dirs } => study_commands::cmd_replot(&dirs),
+        Command::Merge { out, sources } => study_commands::cmd_merge(&out, &sources),
         Command::Ablation {
             scene,
             spp,
             threads,
-        } => cmd_ablation(&scene, spp, threads),
-        Command::Attribute(args) => cmd_attribute(&args),
+        } => study_commands::cmd_ablation(&scene, spp, threads),
+        Command::Attribute(args) => study_commands::cmd_attribute(&args),
         Command::FitLtc {
             out,
             resolution,
@@ -325,7 +282,7 @@ fn resolve_scene(path: &Path) -> PathBuf {
     }
 }
 
-fn load(path: &Path) -> Result<Scene, String> {
+pub fn load(path: &Path) -> Result<Scene, String> {
     let scene = load_scene(&resolve_scene(path)).map_err(|e| e.to_string())?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
@@ -476,73 +433,6 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;
         ltcguide::film::write_atomic(path, json.as_bytes())?;
     }
-    Ok(())
-}
-
-/// Each method's default setting: PT with NEE and Mitsuba's roulette (the
-/// reference renderer's setting); guided methods as in the paper, without
-/// NEE, with adjoint-driven roulette.
-fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
-    let guided = method != Method::Pt;
-    PathSettings {
-        nee: !guided,
-        max_depth: scene.max_depth.or(Some(10)),
-        roulette: if guided {
-            RouletteMode::Adrrs
-        } else {
-            RouletteMode::Classic
-        },
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    }
-}
-
-fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
-    // The arguments first: a bad one fails before a scene is loaded.
-    if !(args.time > 0.0 && args.time.is_finite()) {
-        return Err("--time must be a positive number of seconds".into());
-    }
-    ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
-    let scene = load(&args.scene)?;
-    let reference = read_valid_image(&args.reference)?;
-    let opts = ltcguide::experiment::compare::CompareOptions {
-        methods: args.methods.clone(),
-        seconds: args.time,
-        runs: args.runs,
-        threads: args.threads,
-        out_dir: args.out.clone(),
-        path_for: default_path_settings,
-        nee: args.nee,
-        guided_roulette: Some((args.guided_rr, args.adrrs_window)),
-        cosine_lobes: args.product.cosine_lobes,
-        product_vertices: args.product.product_vertices,
-        pixel_reuse: !args.product.no_pixel_reuse,
-        side_by_side: args.side_by_side,
-        use_plan: !args.no_plan,
-        progress: true,
-    };
-    let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;
-    println!("{}", outcome.summary);
-    Ok(())
-}
-
-fn cmd_ablation(path: &Path, spp: u32, threads: usize) -> Result<(), String> {
-    if spp == 0 {
-        return Err("--spp must be at least 1".into());
-    }
-    let scene = load(path)?;
-    let settings = default_path_settings(&scene, Method::Product);
-    let out = ltcguide::experiment::ablation::run_ablation(&scene, spp, threads, settings, true)?;
-    println!("{}", out.markdown);
-    Ok(())
-}
-
-fn cmd_attribute(args: &ltcguide::experiment::attribution::AttributeArgs) -> Result<(), String> {
-    use ltcguide::experiment::attribution::{check, run_attribution};
-    // The arguments first: a bad one fails before a scene is loaded.
-    check(&args.options(None))?;
-    let scene = load(&args.scene)?;
-    let out = run_attribution(&scene, &args.options(scene.max_depth.or(Some(10))))?;
-    println!("{}", out.markdown);
     Ok(())
 }
 

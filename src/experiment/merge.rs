@@ -1,0 +1,303 @@
+//! Pools the runs of several comparisons of one scene into one: a study
+//! made with `compare --runs 3` gains three more seeds from a later
+//! `compare --runs 3 --first-run 3`, instead of rendering the first three
+//! again. The CSVs hold every snapshot of every run, so the pooled curves,
+//! final-error table and time-to-error table are computed exactly as
+//! `compare` computes its own, from the pooled rows.
+//!
+//! Only comparisons of the same thing are pooled: the same scene, budget,
+//! methods and path settings, and no run (seed) twice. Anything else is
+//! refused before a file is written.
+
+use super::compare::{
+    SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase, seeds_phrase,
+    speedup_section,
+};
+use super::curves::{
+    CurveRow, MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers, to_csv,
+};
+use super::plot::curves_svg;
+use crate::film::write_atomic;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// What [`merge`] wrote.
+#[derive(Debug)]
+pub struct Merged {
+    pub rows: usize,
+    pub runs: Vec<u32>,
+    pub methods: Vec<String>,
+    pub summary: String,
+}
+
+/// The parts of a compare summary that pooling keeps or checks.
+#[derive(Debug)]
+struct SourceSummary {
+    scene: String,
+    /// "Budget … s per run (training included), ".
+    budget: String,
+    /// What follows the runs in the budget line: threads and machine.
+    machine: String,
+    /// The "Path settings: …" line.
+    settings: String,
+    /// The items of the "Per-scene plan" and "Guards" sections.
+    plan: Vec<String>,
+    guards: Vec<String>,
+}
+
+const BUDGET_PREFIX: &str = "Budget ";
+const RUNS_MARK: &str = " runs per method (";
+const SETTINGS_PREFIX: &str = "Path settings: ";
+
+fn parse_summary(text: &str) -> Result<SourceSummary, String> {
+    let mut lines = text.lines();
+    let scene = lines
+        .next()
+        .and_then(|l| l.strip_prefix("# "))
+        .and_then(|l| l.strip_suffix(SUMMARY_TITLE_SUFFIX))
+        .ok_or_else(|| {
+            format!(
+                "not a compare summary (its first line should be '# SCENE{SUMMARY_TITLE_SUFFIX}')"
+            )
+        })?
+        .to_string();
+    let budget_line = text
+        .lines()
+        .find(|l| l.starts_with(BUDGET_PREFIX))
+        .ok_or("no 'Budget …' line")?;
+    // "Budget B s per run (training included), N runs per method (seeds …), MACHINE."
+    let runs_at = budget_line
+        .find(RUNS_MARK)
+        .ok_or("the budget line names no runs")?;
+    let budget_end = budget_line[..runs_at]
+        .rfind(", ")
+        .ok_or("the budget line has no runs after its budget")?
+        + 2;
+    let close = budget_line[runs_at..]
+        .find("), ")
+        .ok_or("the budget line's seeds are not closed")?
+        + runs_at;
+    let machine = budget_line[close + 3..]
+        .strip_suffix('.')
+        .unwrap_or(&budget_line[close + 3..]);
+    let settings = text
+        .lines()
+        .find(|l| l.starts_with(SETTINGS_PREFIX))
+        .ok_or("no 'Path settings: …' line")?;
+    let items = |heading: &str| -> Vec<String> {
+        text.lines()
+            .skip_while(|l| !l.starts_with(heading))
+            .skip(1)
+            .take_while(|l| !l.starts_with("## ") && !l.starts_with("Files:"))
+            .filter_map(|l| l.strip_prefix("- ").map(str::to_string))
+            .collect()
+    };
+    Ok(SourceSummary {
+        scene,
+        budget: budget_line[..budget_end].to_string(),
+        machine: machine.to_string(),
+        settings: settings.to_string(),
+        plan: items("## Per-scene plan"),
+        guards: items("## Guards"),
+    })
+}
+
+/// Pools the comparisons in `sources` (folders written by `compare --out`)
+/// into `out`: `curves.csv` with every source's rows, `curves.svg`, and
+/// `summary.md` with the pooled tables, each source's runs and plan lines.
+/// `out` may be one of the sources (its images stay). Nothing is written
+/// unless every source reads, parses and matches the others.
+pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
+    if sources.len() < 2 {
+        return Err("merge needs at least two comparison folders".into());
+    }
+    let mut parsed = Vec::new();
+    for dir in sources {
+        let read = |name: &str| {
+            let path = dir.join(name);
+            std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))
+        };
+        let csv_path = dir.join("curves.csv");
+        let rows =
+            parse_csv(&read("curves.csv")?).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+        if rows.is_empty() {
+            return Err(format!("{}: no rows", csv_path.display()));
+        }
+        let summary = parse_summary(&read("summary.md")?)
+            .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;
+        parsed.push((dir, rows, summary));
+    }
+    let (first_dir, first_rows, first) = &parsed[0];
+    let methods = methods_in_order(first_rows);
+    let mut seen: Vec<(u32, &PathBuf)> = Vec::new();
+    for (dir, rows, s) in &parsed {
+        let differs = |what: &str, a: &str, b: &str| {
+            format!(
+                "{} and {} differ in {what} ('{a}' against '{b}'): only comparisons of the same \
+                 study can be pooled",
+                first_dir.display(),
+                dir.display()
+            )
+        };
+        if s.scene != first.scene {
+            return Err(differs("scene", &first.scene, &s.scene));
+        }
+        if s.budget != first.budget {
+            return Err(differs("budget", &first.budget, &s.budget));
+        }
+        if s.settings != first.settings {
+            return Err(differs("path settings", &first.settings, &s.settings));
+        }
+        let m = methods_in_order(rows);
+        if m != methods {
+            return Err(differs("methods", &methods.join(","), &m.join(",")));
+        }
+        // Every method must hold the same runs, or the pooled means would
+        // set different seeds side by side.
+        let runs = run_numbers(rows);
+        for method in &methods {
+            let mut own: Vec<u32> = rows
+                .iter()
+                .filter(|r| &r.method == method)
+                .map(|r| r.run)
+                .collect();
+            own.sort_unstable();
+            own.dedup();
+            if own != runs {
+                return Err(format!(
+                    "{}: {method} has runs {own:?} but the comparison has {runs:?}",
+                    dir.join("curves.csv").display()
+                ));
+            }
+        }
+        for &run in &runs {
+            if let Some((_, other)) = seen.iter().find(|(r, _)| *r == run) {
+                return Err(format!(
+                    "run {run} (seed {}) is in both {} and {}: pooling it twice would count one \
+                     seed as two runs (give the later comparison --first-run past the earlier's runs)",
+                    run_seed(run),
+                    other.display(),
+                    dir.display()
+                ));
+            }
+            seen.push((run, dir));
+        }
+    }
+    // Rows by method, then run, each run's snapshots in their own order.
+    let mut pooled: Vec<CurveRow> = Vec::new();
+    for method in &methods {
+        let mut runs: Vec<(u32, Vec<CurveRow>)> = Vec::new();
+        for (_, rows, _) in &parsed {
+            for run in run_numbers(rows) {
+                let own = rows
+                    .iter()
+                    .filter(|r| &r.method == method && r.run == run)
+                    .cloned()
+                    .collect();
+                runs.push((run, own));
+            }
+        }
+        runs.sort_by_key(|(run, _)| *run);
+        pooled.extend(runs.into_iter().flat_map(|(_, rows)| rows));
+    }
+    let csv = to_csv(&pooled);
+    // As in `compare`: every figure from the rows as the CSV holds them.
+    let rows = parse_csv(&csv)?;
+    let curves: Vec<MeanCurve> = methods.iter().map(|m| mean_curve(&rows, m)).collect();
+    let runs = run_numbers(&rows);
+    let svg = curves_svg(&curves_title(&first.scene, runs.len()), &curves)?;
+    let summary = pooled_summary(&parsed, &rows, &curves);
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create '{}': {e}", out.display()))?;
+    write_atomic(&out.join("curves.csv"), csv.as_bytes())?;
+    write_atomic(&out.join("curves.svg"), svg.as_bytes())?;
+    write_atomic(&out.join("summary.md"), summary.as_bytes())?;
+    Ok(Merged {
+        rows: rows.len(),
+        runs,
+        methods,
+        summary,
+    })
+}
+
+fn pooled_summary(
+    parsed: &[(&PathBuf, Vec<CurveRow>, SourceSummary)],
+    rows: &[CurveRow],
+    curves: &[MeanCurve],
+) -> String {
+    let first = &parsed[0].2;
+    let mut machines: Vec<&str> = Vec::new();
+    for (_, _, s) in parsed {
+        if !machines.contains(&s.machine.as_str()) {
+            machines.push(&s.machine);
+        }
+    }
+    let mut s = String::new();
+    let _ = writeln!(s, "# {}{SUMMARY_TITLE_SUFFIX}\n", first.scene);
+    let _ = writeln!(
+        s,
+        "{}{}, {}.\n",
+        first.budget,
+        runs_phrase(rows),
+        machines.join("; ")
+    );
+    let sources: Vec<String> = parsed
+        .iter()
+        .map(|(dir, rows, _)| {
+            let runs = run_numbers(rows);
+            format!("`{}` (seeds {})", dir.display(), seeds_phrase(&runs))
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        "Pooled by `ltcguide merge` from {} comparisons: {}.\n",
+        parsed.len(),
+        sources.join(", ")
+    );
+    let _ = writeln!(s, "{}\n", first.settings);
+    s.push_str(&final_errors_table(rows, curves));
+    s.push_str(&speedup_section(curves));
+    let section = |s: &mut String, heading: &str, pick: fn(&SourceSummary) -> &Vec<String>| {
+        if parsed.iter().any(|(_, _, src)| !pick(src).is_empty()) {
+            let _ = writeln!(s, "\n{heading}\n");
+            for (dir, _, src) in parsed {
+                for item in pick(src) {
+                    let _ = writeln!(s, "- `{}`: {item}", dir.display());
+                }
+            }
+        }
+    };
+    section(&mut s, "## Per-scene plan", |src| &src.plan);
+    section(&mut s, "## Guards", |src| &src.guards);
+    let _ = writeln!(
+        s,
+        "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`; the final images of \
+         each comparison's first run stay in its folder."
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summaries_parse_into_their_parts() {
+        let text = format!(
+            "# staircase{SUMMARY_TITLE_SUFFIX}\n\nBudget 240.0 s per run (training included), 3 runs per \
+             method (seeds 1000…), the methods of a run side by side on 1 of 2 threads each, AMD EPYC.\n\n\
+             Path settings: pt: NEE. Per-scene plan: off.\n\n| method |\n\n## Per-scene plan\n\n- pt: plan a\n\
+             - radiance: plan b\n\nFiles: x\n"
+        );
+        let s = parse_summary(&text).unwrap();
+        assert_eq!(s.scene, "staircase");
+        assert_eq!(s.budget, "Budget 240.0 s per run (training included), ");
+        assert_eq!(
+            s.machine,
+            "the methods of a run side by side on 1 of 2 threads each, AMD EPYC"
+        );
+        assert_eq!(s.settings, "Path settings: pt: NEE. Per-scene plan: off.");
+        assert_eq!(s.plan, ["pt: plan a", "radiance: plan b"]);
+        assert!(s.guards.is_empty());
+        assert!(parse_summary("# x\n").is_err());
+    }
+}

@@ -1,0 +1,148 @@
+//! `compare --first-run` continues a study with new seeds, and `merge` pools
+//! the comparisons: the pooled tables are those of the pooled rows, and
+//! comparisons of different things, or of one seed twice, are refused with
+//! nothing written.
+
+mod common;
+
+use common::study::{compare_options, flat_reference, tiny};
+use ltcguide::experiment::compare::{CompareOptions, run_compare};
+use ltcguide::experiment::curves::{CurveRow, parse_csv};
+use ltcguide::experiment::merge::merge;
+use ltcguide::render::Method;
+use std::path::{Path, PathBuf};
+
+fn temp(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("ltcguide-merge-{name}-{}", std::process::id()))
+}
+
+/// One comparison of pt and radiance, `runs` runs from `first_run` on.
+fn study(dir: &Path, first_run: u32, runs: u32, seconds: f64) -> Vec<CurveRow> {
+    let opts = CompareOptions {
+        runs,
+        first_run,
+        seconds,
+        use_plan: false,
+        ..compare_options(vec![Method::Pt, Method::Radiance], dir)
+    };
+    run_compare(&tiny(), &flat_reference(), &opts).unwrap().rows
+}
+
+fn rows_in(dir: &Path) -> Vec<CurveRow> {
+    parse_csv(&std::fs::read_to_string(dir.join("curves.csv")).unwrap()).unwrap()
+}
+
+fn run_cli(args: &[&std::ffi::OsStr]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn merged_comparisons_pool_every_run_and_recompute_the_tables() {
+    let (a, b, out) = (temp("a"), temp("b"), temp("out"));
+    let rows_a = study(&a, 0, 1, 0.2);
+    let rows_b = study(&b, 1, 2, 0.2);
+    // --first-run numbers the runs and their seeds on from it.
+    assert!(rows_b.iter().all(|r| r.run == 1 || r.run == 2));
+    let summary_b = std::fs::read_to_string(b.join("summary.md")).unwrap();
+    assert!(
+        summary_b.contains("2 runs per method (seeds 1001–1002)"),
+        "{summary_b}"
+    );
+    let merged = merge(&out, &[a.clone(), b.clone()]).unwrap();
+    assert_eq!(merged.runs, [0, 1, 2]);
+    // Every row of both, grouped by method then run, none changed.
+    let pooled = rows_in(&out);
+    assert_eq!(pooled.len(), rows_a.len() + rows_b.len());
+    for method in ["pt", "radiance"] {
+        let expected: Vec<&CurveRow> = [&rows_a, &rows_b]
+            .into_iter()
+            .flat_map(|rows| rows.iter().filter(|r| r.method == method))
+            .collect();
+        let got: Vec<&CurveRow> = pooled.iter().filter(|r| r.method == method).collect();
+        assert_eq!(got.len(), expected.len());
+        for (g, e) in got.iter().zip(&expected) {
+            assert_eq!((g.run, g.spp), (e.run, e.spp));
+            assert!((g.relmse - e.relmse).abs() <= 1e-9 * e.relmse.abs().max(1e-12));
+        }
+        // The table's mean relMSE is the mean of the three runs' final rows.
+        let finals: Vec<f64> = (0..3)
+            .map(|run| {
+                pooled
+                    .iter()
+                    .rfind(|r| r.method == method && r.run == run)
+                    .unwrap()
+                    .relmse
+            })
+            .collect();
+        let mean = finals.iter().sum::<f64>() / 3.0;
+        let line = merged
+            .summary
+            .lines()
+            .find(|l| l.starts_with(&format!("| {method} |")))
+            .unwrap();
+        let shown: f64 = line
+            .split('|')
+            .nth(3)
+            .unwrap()
+            .split('±')
+            .next()
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        assert!((shown - mean).abs() <= 1e-4 * mean, "{line}: mean {mean}");
+    }
+    let s = &merged.summary;
+    assert!(s.contains("3 runs per method (seeds 1000–1002)"), "{s}");
+    assert!(
+        s.contains("Pooled by `ltcguide merge` from 2 comparisons"),
+        "{s}"
+    );
+    assert!(s.contains("Time-to-error speedup"), "{s}");
+    assert_eq!(std::fs::read_to_string(out.join("summary.md")).unwrap(), *s);
+    let svg = std::fs::read_to_string(out.join("curves.svg")).unwrap();
+    assert!(svg.contains("(3 runs)"));
+    // The pooled folder is a comparison itself: replot recomputes its
+    // curves exactly from its CSV.
+    let replot = run_cli(&["replot".as_ref(), out.as_os_str()]);
+    assert!(replot.status.success());
+    assert_eq!(
+        std::fs::read_to_string(out.join("curves.svg")).unwrap(),
+        svg
+    );
+    assert_eq!(std::fs::read_to_string(out.join("summary.md")).unwrap(), *s);
+    for d in [a, b, out] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn merge_refuses_a_seed_twice_and_different_studies() {
+    let (a, b, c, out) = (temp("ra"), temp("rb"), temp("rc"), temp("rout"));
+    study(&a, 0, 1, 0.2);
+    study(&b, 0, 1, 0.2);
+    study(&c, 1, 1, 0.3);
+    let err = merge(&out, &[a.clone(), b.clone()]).unwrap_err();
+    assert!(err.contains("run 0 (seed 1000) is in both"), "{err}");
+    let err = merge(&out, &[a.clone(), c.clone()]).unwrap_err();
+    assert!(err.contains("differ in budget"), "{err}");
+    assert!(merge(&out, std::slice::from_ref(&a)).is_err());
+    assert!(!out.exists(), "a refused merge wrote {}", out.display());
+    // Through the CLI: exit 2, the reason on stderr, nothing written.
+    let cli = run_cli(&[
+        "merge".as_ref(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        a.as_os_str(),
+        b.as_os_str(),
+    ]);
+    assert_eq!(cli.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&cli.stderr).contains("is in both"));
+    assert!(!out.exists());
+    for d in [a, b, c] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
