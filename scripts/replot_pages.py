@@ -19,6 +19,8 @@ import subprocess
 import sys
 from datetime import datetime, timezone
 
+from page_text import body, with_note, write_page
+
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 PAGES = {
     "docs/results.md": ["docs/results"],
@@ -26,10 +28,6 @@ PAGES = {
     "docs/study.md": ["docs/study/classic", "docs/study/adrrs"],
 }
 MARK = "Curves and time-to-error tables redrawn from the runs' `curves.csv` by `scripts/replot_pages.py`"
-
-
-def body(summary_text):
-    return "".join(summary_text.splitlines(keepends=True)[2:])
 
 
 def main():
@@ -62,16 +60,7 @@ def main():
                 f"times (before, snapshot by snapshot, which mixed times and dropped final snapshots "
                 f"when runs took different numbers of them), and a method reaches an error when its "
                 f"curve stays at or below it.\n")
-        lines = text.splitlines(keepends=True)
-        # An earlier note goes with the blank line it brought.
-        for i in reversed([i for i, l in enumerate(lines) if l.startswith(MARK)]):
-            del lines[i:i + 2 if i + 1 < len(lines) and lines[i + 1] == "\n" else i + 1]
-        # A paragraph of its own at the end of the preamble (before the first section).
-        at = next((i for i, l in enumerate(lines) if l.startswith("## ")), len(lines))
-        lines[at:at] = [note, "\n"]
-        tmp = page + ".tmp"
-        open(tmp, "w").write("".join(lines))
-        os.replace(tmp, page)
+        write_page(page, with_note(text, note, MARK))
         print(f"{page}: {len(folders)} comparisons redrawn")
 
 
