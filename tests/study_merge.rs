@@ -130,6 +130,15 @@ fn merge_refuses_a_seed_twice_and_different_studies() {
     let err = merge(&out, &[a.clone(), c.clone()]).unwrap_err();
     assert!(err.contains("differ in budget"), "{err}");
     assert!(merge(&out, std::slice::from_ref(&a)).is_err());
+    // Run numbers past u32::MAX are refused before anything renders.
+    let past = CompareOptions {
+        first_run: u32::MAX,
+        ..compare_options(vec![Method::Pt], &out)
+    };
+    match run_compare(&tiny(), &flat_reference(), &past) {
+        Err(err) => assert!(err.contains("--first-run"), "{err}"),
+        Ok(_) => panic!("run numbers past u32::MAX were accepted"),
+    }
     assert!(!out.exists(), "a refused merge wrote {}", out.display());
     // Through the CLI: exit 2, the reason on stderr, nothing written.
     let cli = run_cli(&[

@@ -124,8 +124,10 @@ pub fn run_compare(
     }
     if opts.first_run.checked_add(opts.runs).is_none() {
         return Err(format!(
-            "runs {} to {} + {} do not fit the run numbers",
-            opts.first_run, opts.first_run, opts.runs
+            "--first-run {} with --runs {} passes the largest run number ({})",
+            opts.first_run,
+            opts.runs,
+            u32::MAX
         ));
     }
     std::fs::create_dir_all(&opts.out_dir)
