@@ -561,6 +561,8 @@ fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
             matches!(w, ProductWeights::RadianceOnly { .. }),
             "α {alpha}, diffuse {diffuse}"
         );
+        // What lets the guide descend with `RadianceWeights` itself.
+        assert!(w.is_radiance());
         for _ in 0..500 {
             let u = rng.next_2d();
             let s = descent::sample(&tree, &mut w, u);
@@ -573,9 +575,10 @@ fn cosine_vertices_take_radiance_weights_unless_asked_otherwise() {
         }
         let paper = weights_for(&case(alpha, diffuse), &cosine_product, &mut rng, &mut cache);
         assert!(
-            matches!(paper, Some(ProductWeights::Product(_))),
+            matches!(&paper, Some(ProductWeights::Product(_))),
             "α {alpha}, diffuse {diffuse}: the paper's cosine product"
         );
+        assert!(!paper.unwrap().is_radiance());
     }
     for diffuse in [false, true] {
         let glossy = weights_for(
@@ -613,6 +616,7 @@ fn a_cosine_only_scene_renders_product_as_radiance_guiding() {
     let product = render(&scene, &opts(Method::Product, CosineLobes::Radiance)).unwrap();
     assert!(radiance.image.pixels.iter().any(|p| p.x > 0.0));
     assert_eq!(radiance.image.pixels, product.image.pixels);
+
     let plan = product.stats.plan.clone().unwrap();
     assert!(
         plan.contains("every vertex takes radiance weights")

@@ -42,6 +42,15 @@ pub trait ChildWeights {
     fn refine_below_leaves_to(&self) -> u32 {
         0
     }
+
+    /// True when these weights are the stored radiance at this vertex
+    /// (w_k = L_k, no refinement below the leaves), as [`RadianceWeights`]
+    /// are: callers then descend with `RadianceWeights` itself, whose code
+    /// is specialised to that, and sample and pdf stay the same functions
+    /// of the tree.
+    fn is_radiance(&self) -> bool {
+        false
+    }
 }
 
 /// Below the leaves, the descent stops once the largest sub-cell weight is
@@ -75,6 +84,10 @@ impl ChildWeights for RadianceWeights {
     fn child_weights(&mut self, _cell: Cell, radiance: [f32; 4]) -> [f32; 4] {
         radiance
     }
+
+    fn is_radiance(&self) -> bool {
+        true
+    }
 }
 
 impl<W: ChildWeights + ?Sized> ChildWeights for &mut W {
@@ -85,6 +98,10 @@ impl<W: ChildWeights + ?Sized> ChildWeights for &mut W {
 
     fn refine_below_leaves_to(&self) -> u32 {
         (**self).refine_below_leaves_to()
+    }
+
+    fn is_radiance(&self) -> bool {
+        (**self).is_radiance()
     }
 }
 

@@ -254,6 +254,10 @@ impl ChildWeights for ProductWeights<'_> {
         }
     }
 
+    fn is_radiance(&self) -> bool {
+        matches!(self, ProductWeights::RadianceOnly { .. })
+    }
+
     /// Only glossy lobes vary faster than the radiance tree resolves; a
     /// cosine lobe is smooth at every leaf size the tree produces.
     fn refine_below_leaves_to(&self) -> u32 {
