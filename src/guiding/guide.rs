@@ -122,24 +122,11 @@ impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
         self.alpha
     }
 
-    // Radiance weights under another type (product guiding's fallback at
-    // cosine lobes and deeper vertices) descend through the radiance
-    // descent's own code: the same weights and images, without the
-    // product's memo and refinement branches at every level. On cornell-box
-    // (no glossy lobe, so radiance weights at every vertex) the product ran
-    // 12 % slower than radiance guiding; this cut its CPU time by
-    // 0.94 ± 0.03 (48 spp, --no-plan, 4 side-by-side rounds).
     fn sample(&mut self, u: Vec2) -> Option<(Vec3, f32)> {
-        if self.weights.is_radiance() {
-            return descent::sample_direction(self.tree, &mut RadianceWeights, u);
-        }
         descent::sample_direction(self.tree, &mut self.weights, u)
     }
 
     fn pdf(&mut self, dir: Vec3) -> f32 {
-        if self.weights.is_radiance() {
-            return descent::pdf_direction(self.tree, &mut RadianceWeights, dir);
-        }
         descent::pdf_direction(self.tree, &mut self.weights, dir)
     }
 
@@ -185,11 +172,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         // The root normaliser: with product weights, Σ L_k·D_k estimates the
         // reflected radiance (the adjoint); with radiance weights, the
         // incident radiance integral.
-        let root_total = if weights.is_radiance() {
-            descent::root_total(&leaf.sampling, &mut RadianceWeights)
-        } else {
-            descent::root_total(&leaf.sampling, &mut weights)
-        };
+        let root_total = descent::root_total(&leaf.sampling, &mut weights);
         if !(root_total > 0.0 && root_total.is_finite()) {
             // Zero: nothing to guide towards here, not an error.
             counters.guide_root_nonfinite += !root_total.is_finite() as u64;
