@@ -858,3 +858,81 @@ fn smooth_plastic_sampling_is_unbiased() {
         );
     }
 }
+
+/// `Material::reflects_nothing` (which ends a path at the surface) holds
+/// only where the BSDF is zero for every uv and pair of directions: each
+/// material it accepts evaluates and samples to zero at random queries on
+/// both sides, and each one it refuses reflects something at some query. A
+/// checkerboard with one black colour is refused although half its texels
+/// are black.
+#[test]
+fn reflects_nothing_only_where_every_query_is_zero() {
+    let kinds = |black: f32| {
+        vec![
+            MaterialKind::Diffuse {
+                reflectance: c(black),
+            },
+            MaterialKind::RoughConductor {
+                alpha: 0.2,
+                fresnel: gold(),
+                specular_reflectance: c(black),
+            },
+            MaterialKind::Conductor {
+                fresnel: ConductorFresnel::None,
+                specular_reflectance: c(black),
+            },
+            MaterialKind::RoughPlastic {
+                alpha: 0.2,
+                eta: 1.5,
+                diffuse_reflectance: c(black),
+            },
+            MaterialKind::Plastic {
+                eta: 1.5,
+                diffuse_reflectance: c(black),
+            },
+            MaterialKind::Dielectric { eta: 1.5 },
+            MaterialKind::Diffuse {
+                reflectance: Texture::Checkerboard {
+                    color0: Spectrum::ZERO,
+                    color1: Spectrum::splat(black.max(0.5)),
+                    scale: Vec2::ONE,
+                },
+            },
+        ]
+    };
+    let mut rng = Rng::new(17, 4);
+    // The largest value or weight over many random queries.
+    let mut largest = |m: &Material| {
+        let mut most = 0.0f32;
+        for _ in 0..2000 {
+            let bsdf = m.at(rng.next_2d());
+            let wo = square_to_uniform_sphere(rng.next_2d());
+            let wi = square_to_uniform_sphere(rng.next_2d());
+            most = most.max(bsdf.eval(wo, wi).max_element());
+            if let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d()) {
+                most = most.max(s.weight.max_element());
+            }
+        }
+        most
+    };
+    let mut accepted = 0;
+    for black in [0.0, 0.7] {
+        for two_sided in [false, true] {
+            for kind in kinds(black) {
+                let name = format!("{kind:?}, two-sided {two_sided}");
+                let Ok(m) = Material::new(kind, two_sided) else {
+                    continue; // a two-sided dielectric is refused
+                };
+                let most = largest(&m);
+                if m.reflects_nothing() {
+                    accepted += 1;
+                    assert_eq!(most, 0.0, "{name}");
+                } else {
+                    assert!(most > 0.0, "{name}: refused, yet nothing reflected");
+                }
+            }
+        }
+    }
+    // Zero diffuse, rough conductor and conductor, one- and two-sided.
+    assert_eq!(accepted, 6);
+}

@@ -144,6 +144,9 @@ fn guard_events_of_a_render_reach_its_stats() {
             budget: Budget::Spp(4),
             threads: 2,
             use_plan: false,
+            // The paper's cosine product looks at the diffuse floor's lobes
+            // (radiance weights at cosine vertices skip them).
+            cosine_lobes: ltcguide::guiding::product::CosineLobes::Product,
             ..Default::default()
         };
         let r = render(&scene, &opts).unwrap();
@@ -187,7 +190,18 @@ fn non_finite_adjoint_estimates_are_counted_by_the_path_loop() {
         }
     }
 
-    let scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    // The sphere light reflects, so that paths go on from it (a black
+    // surface ends them).
+    let mut scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let sphere = scene
+        .materials
+        .iter_mut()
+        .find(|m| m.reflects_nothing())
+        .unwrap();
+    sphere.kind = ltcguide::bsdf::MaterialKind::Diffuse {
+        reflectance: ltcguide::texture::Texture::Constant(Vec3::splat(0.5)),
+    };
+    assert!(!sphere.reflects_nothing());
     let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, SdTreeConfig::default());
     tree.leaves_mut()[0].sampling = QuadTree::uniform(1.0);
     // BSDF sampling only: the guide is there for its adjoint estimate.

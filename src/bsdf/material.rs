@@ -256,6 +256,16 @@ impl Material {
         }
     }
 
+    /// True when every `at(uv)` is zero for every pair of directions: a
+    /// constant zero reflectance, as the pack's emitters have. A path that
+    /// meets such a surface ends there once its emission is added, since
+    /// nothing it scatters could contribute; sampling a direction, tracing
+    /// it and recording it in the guide would be work without effect.
+    #[inline]
+    pub fn reflects_nothing(&self) -> bool {
+        reflects_nothing(&self.kind)
+    }
+
     /// [`Bsdf::has_smooth_lobes_only`] of every `at(uv)`, known without a
     /// texture lookup.
     #[inline]
@@ -266,5 +276,30 @@ impl Material {
                 | MaterialKind::Dielectric { .. }
                 | MaterialKind::ThinDielectric { .. }
         )
+    }
+}
+
+/// Whether `kind` reflects nothing anywhere (see
+/// [`Material::reflects_nothing`]). A plastic's coat always reflects, and a
+/// dielectric always transmits, so only a zero diffuse or conductor
+/// reflectance qualifies, and only as a constant: a texture may hold black
+/// texels beside others.
+#[inline]
+fn reflects_nothing(kind: &MaterialKind) -> bool {
+    let zero = |t: &Texture| matches!(t, Texture::Constant(c) if *c == Spectrum::ZERO);
+    match kind {
+        MaterialKind::Diffuse { reflectance } => zero(reflectance),
+        MaterialKind::RoughConductor {
+            specular_reflectance,
+            ..
+        }
+        | MaterialKind::Conductor {
+            specular_reflectance,
+            ..
+        } => zero(specular_reflectance),
+        MaterialKind::RoughPlastic { .. }
+        | MaterialKind::Plastic { .. }
+        | MaterialKind::Dielectric { .. }
+        | MaterialKind::ThinDielectric { .. } => false,
     }
 }

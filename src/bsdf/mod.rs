@@ -379,6 +379,12 @@ impl Bsdf {
         )
     }
 
+    /// True for Mitsuba's `diffuse` (a single cosine lobe at every ω_o).
+    #[inline]
+    pub fn is_diffuse(&self) -> bool {
+        matches!(self.model, BsdfModel::Diffuse { .. })
+    }
+
     /// Alias of [`Self::has_smooth_lobes_only`].
     #[inline]
     pub fn is_delta_only(&self) -> bool {

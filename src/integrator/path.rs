@@ -184,6 +184,10 @@ pub fn trace_path<G: Guide>(
         if segments >= max_depth {
             break;
         }
+        if material.reflects_nothing() {
+            counters.ended_at_black_surfaces += 1;
+            break;
+        }
         // The guide's memory, too, loads during the texture lookup.
         let smooth_only = material.has_smooth_lobes_only();
         let location = (!smooth_only).then(|| guide.locate(it.p));

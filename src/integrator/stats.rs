@@ -27,6 +27,9 @@ pub struct RenderCounters {
     /// the pixel / built anew (product guiding with reuse in a pixel).
     pub product_lobes_reused: u64,
     pub product_lobes_built: u64,
+    /// Paths ended at a surface that reflects nothing
+    /// ([`crate::bsdf::Material::reflects_nothing`]), after its emission.
+    pub ended_at_black_surfaces: u64,
     /// Adjoint-driven roulette decisions.
     #[serde(flatten)]
     pub adrrs: AdrrsCounters,
@@ -48,6 +51,7 @@ impl RenderCounters {
         self.guided_below_horizon += o.guided_below_horizon;
         self.product_lobes_reused += o.product_lobes_reused;
         self.product_lobes_built += o.product_lobes_built;
+        self.ended_at_black_surfaces += o.ended_at_black_surfaces;
         self.adrrs.merge(&o.adrrs);
     }
 }
