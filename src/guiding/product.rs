@@ -289,16 +289,14 @@ impl ProductModel<'_> {
             slot.set_product(ltc, self.kernel);
         }
     }
-}
 
-impl ProductModel<'_> {
     /// The weights at a vertex whose lobes must be looked at. Kept out of
     /// line: its frame holds a lobe, an LTC and a memo (13 KiB, probed page
     /// by page), which the radiance-weighted vertices, most of a path's,
     /// set up at every call while it was inlined in `weights`. On
     /// cornell-box, where every vertex takes radiance weights, the product's
     /// CPU over radiance guiding's went from 1.03 to 1.015 (the minimum of 9
-    /// runs each; 1.08 before the diffuse shortcut above).
+    /// runs each; 1.08 before `weights` returned at diffuse BSDFs).
     #[inline(never)]
     fn lobe_weights<'a>(
         &'a self,
