@@ -495,8 +495,9 @@ fn attribution_pairs_differ_only_in_the_method() {
 
 /// Pixels are classed by the floor's material as the product treats it:
 /// a sharp conductor is glossy, a plastic's coat over its base is a coat,
-/// and GGX rougher than 0.5 is a cosine lobe; the light's own pixels
-/// (a black diffuse sphere) are cosine too, and nothing misses.
+/// and GGX rougher than 0.5 is a cosine lobe. The light's own pixels (a
+/// black diffuse sphere, where paths end) have no vertex to guide, and
+/// every other pixel sees the floor.
 #[test]
 fn pixel_classes_follow_the_product_treatment_of_the_material() {
     use ltcguide::experiment::pixel_classes::{PixelClass, class_counts, classify};
@@ -532,7 +533,8 @@ fn pixel_classes_follow_the_product_treatment_of_the_material() {
         let i = PixelClass::ALL.iter().position(|&c| c == want).unwrap();
         // The floor fills the view but for the sphere's few pixels.
         assert!(counts[i] > 64 * 64 * 9 / 10, "{bsdf}: {counts:?}");
-        assert_eq!(counts[3], 0, "{bsdf}: {counts:?}");
+        assert!(counts[3] > 0, "{bsdf}: {counts:?}");
+        assert_eq!(counts[i] + counts[3], 64 * 64, "{bsdf}: {counts:?}");
     }
 }
 

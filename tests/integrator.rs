@@ -243,3 +243,40 @@ fn non_finite_adjoint_estimates_are_counted_by_the_path_loop() {
     assert!(invalid > 50 && invalid < 400, "{counters:?}");
     assert_eq!(counters.adrrs.played + counters.adrrs.above_window, 0);
 }
+
+/// The first vertex a guide could act on, as the α image and the
+/// attribution's pixel classes see it: on the analytic scene every pixel
+/// centre's ray meets the floor or the black sphere light first, and the
+/// vertex is there exactly where it meets the floor (paths end at the
+/// sphere, which reflects nothing).
+#[test]
+fn the_first_vertex_to_guide_is_never_on_a_surface_that_reflects_nothing() {
+    use ltcguide::integrator::first_vertex::at_pixel_centre;
+    let scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let mut on_sphere = 0;
+    for i in 0..w * h {
+        let film = glam::Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
+        let (o, d) = scene.camera.ray(film);
+        let it = scene
+            .intersect(o, d, f32::INFINITY)
+            .expect("every ray meets the scene");
+        let black = scene.material_of(&it).reflects_nothing();
+        on_sphere += black as usize;
+        match at_pixel_centre(&scene, i) {
+            None => assert!(black, "pixel {i}: no vertex, yet the floor was hit"),
+            Some(v) => {
+                assert!(!black, "pixel {i}: a vertex on the black sphere");
+                assert!(
+                    (v.p - it.p).length() < 1e-4,
+                    "pixel {i}: {:?} vs {:?}",
+                    v.p,
+                    it.p
+                );
+            }
+        }
+    }
+    // The sphere (radius 0.4, 4.5 below the camera) covers a disc of the
+    // 64 × 64 image; the floor the rest.
+    assert!(on_sphere > 20 && on_sphere < w * h / 2, "{on_sphere}");
+}

@@ -22,7 +22,8 @@ pub enum PixelClass {
     GlossyCoat,
     /// Only cosine lobes: the product takes radiance weights here.
     Cosine,
-    /// The camera ray leaves the scene or meets only delta surfaces.
+    /// The camera ray leaves the scene, meets only delta surfaces, or ends
+    /// at a surface that reflects nothing.
     NoVertex,
 }
 
@@ -39,7 +40,7 @@ impl PixelClass {
             PixelClass::Glossy => "glossy GGX lobe (α ≤ 0.5), most of the weight",
             PixelClass::GlossyCoat => "glossy coat (α ≤ 0.5) over cosine lobes",
             PixelClass::Cosine => "cosine lobes only",
-            PixelClass::NoVertex => "no non-delta vertex",
+            PixelClass::NoVertex => "no vertex to guide (none, delta only or black)",
         }
     }
 

@@ -7,8 +7,8 @@ use crate::integrator::first_vertex::at_pixel_centre;
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 
-/// α per pixel, `None` where the camera ray leaves the scene or meets only
-/// delta surfaces.
+/// α per pixel, `None` where the camera ray finds no vertex to guide (see
+/// [`crate::integrator::first_vertex::first_non_delta_vertex`]).
 pub fn alpha_aov(scene: &Scene, tree: &SdTree) -> Vec<Option<f32>> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     (0..w * h)

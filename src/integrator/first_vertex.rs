@@ -18,14 +18,19 @@ pub struct FirstVertex {
 }
 
 /// The first non-delta vertex on the ray through `film` (pixel
-/// coordinates), `None` where the ray leaves the scene or meets only delta
-/// surfaces. A delta surface is left through its first lobe (the sample at
-/// u = 0), as a deterministic stand-in for the paths' choice.
+/// coordinates), `None` where the ray leaves the scene, meets only delta
+/// surfaces, or meets a surface that reflects nothing (paths end there, so
+/// no guide acts on it). A delta surface is left through its first lobe
+/// (the sample at u = 0), as a deterministic stand-in for the paths' choice.
 pub fn first_non_delta_vertex(scene: &Scene, film: Vec2) -> Option<FirstVertex> {
     let (mut o, mut d) = scene.camera.ray(film);
     for _ in 0..MAX_DELTA_BOUNCES {
         let it = scene.intersect(o, d, f32::INFINITY)?;
-        let bsdf = scene.material_of(&it).at(it.uv);
+        let material = scene.material_of(&it);
+        if material.reflects_nothing() {
+            return None;
+        }
+        let bsdf = material.at(it.uv);
         let wo_local = it.frame.to_local(-d);
         if !bsdf.has_smooth_lobes_only() {
             return Some(FirstVertex {
