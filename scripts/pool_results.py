@@ -46,8 +46,8 @@ REPLACED = "Runs replaced by `scripts/pool_results.py --replace`"
 
 
 def without_pooled_runs_of(text, scenes):
-    """The page with `scenes` taken out of the notes of earlier pooling (their pooled runs are
-    gone once the scenes are replaced); a note left with no scene is removed."""
+    """The page with `scenes` taken out of the notes of earlier pooling and replacing (those runs
+    are gone once the scenes are replaced again); a note left with no scene is removed."""
     out = []
     lines = text.splitlines(keepends=True)
     skip_blank = False
@@ -56,15 +56,15 @@ def without_pooled_runs_of(text, scenes):
             skip_blank = False
             if line == "\n":
                 continue
-        if line.startswith(MARK):
+        if line.startswith((MARK, REPLACED)):
             head, rest = line.split(": ", 1)
-            listed, tail = rest.split(", rendered with", 1)
+            listed, tail = rest.split(", rendered ", 1)
             kept = [item for item in re.findall(r"[^,]+ \(seeds [^)]*\)", listed)
                     if item.strip().split(" (")[0] not in scenes]
             if not kept:
                 skip_blank = True
                 continue
-            line = f"{head}: {', '.join(k.strip() for k in kept)}, rendered with{tail}"
+            line = f"{head}: {', '.join(k.strip() for k in kept)}, rendered {tail}"
         out.append(line)
     return "".join(out)
 
