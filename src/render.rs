@@ -5,6 +5,7 @@ use crate::film::image::{Film, Image};
 use crate::guards::drain_pool;
 use crate::guiding::guide::RadianceModel;
 use crate::guiding::product::{CosineLobes, ProductModel};
+use crate::guiding::schedule::TrainingStop;
 use crate::guiding::sdtree::SdTree;
 use crate::guiding::train::{GuidingStats, render_guided};
 use crate::integrator::guide::NoGuide;
@@ -62,6 +63,8 @@ pub struct RenderOptions {
     pub bsdf_fraction: Option<f32>,
     /// Product guiding: which child-integral implementation.
     pub product_kernel: ProductKernel,
+    /// Guided methods: the rule that ends training.
+    pub training_stop: TrainingStop,
     /// Product guiding: the weights of vertices whose lobes are all cosines.
     pub cosine_lobes: CosineLobes,
     /// Product guiding: the first this many vertices of a path take product
@@ -98,6 +101,7 @@ impl Default for RenderOptions {
             snapshot_times: Vec::new(),
             bsdf_fraction: None,
             product_kernel: ProductKernel::default(),
+            training_stop: TrainingStop::default(),
             cosine_lobes: CosineLobes::default(),
             product_vertices: crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
             pixel_reuse: true,

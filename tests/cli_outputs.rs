@@ -288,6 +288,28 @@ fn images_with_non_finite_or_negative_pixels_are_refused() {
     let (code, stdout, err) = run(&["error".as_ref(), good.as_ref(), good.as_ref()]);
     assert_eq!(code, Some(0), "{err}");
     assert!(stdout.contains("relmse 0.000000e0"), "{stdout}");
+    // 8×8 pixels hold no 16×16 block: the metrics stand, the bias line says why it is missing.
+    assert!(
+        stdout.contains("mean_ratio not computed: a 8×8 image holds 0 whole blocks"),
+        "{stdout}"
+    );
+    // 64×64 pixels hold 16 blocks: equal images have ratio 1 and z 0; a
+    // noiseless image 10 % brighter has ratio 1.1 and no noise to hide it.
+    let big = dir.join("big.exr");
+    let brighter = dir.join("brighter.exr");
+    write_rgb(&big, 64, 64, &[glam::Vec3::splat(0.5); 64 * 64]).unwrap();
+    write_rgb(&brighter, 64, 64, &[glam::Vec3::splat(0.55); 64 * 64]).unwrap();
+    let (code, stdout, err) = run(&["error".as_ref(), big.as_ref(), big.as_ref()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(stdout.contains("mean_ratio 1.00000 ("), "{stdout}");
+    assert!(
+        stdout.contains("z +0.00, 16 blocks of 16×16 pixels"),
+        "{stdout}"
+    );
+    let (code, stdout, err) = run(&["error".as_ref(), brighter.as_ref(), big.as_ref()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(stdout.contains("mean_ratio 1.10000 ("), "{stdout}");
+    assert!(stdout.contains("z +inf"), "{stdout}");
     for (name, value) in [("nan", f32::NAN), ("inf", f32::INFINITY), ("neg", -1.0)] {
         let mut pixels = vec![glam::Vec3::splat(0.5); 64];
         // Pixel (3, 1), and a later one: the first is named.

@@ -5,7 +5,9 @@ use ltcguide::film::image::Film;
 use ltcguide::guiding::adam::{AdamConfig, AdamStats, BsdfFraction, NonFiniteGradient};
 use ltcguide::guiding::adrrs::{Adrrs, AdrrsStats};
 use ltcguide::guiding::combine::combine;
-use ltcguide::guiding::schedule::{Budget, IterationReport, Schedule, Step};
+use ltcguide::guiding::schedule::{
+    Budget, IterationReport, Schedule, Step, TrainingEnd, TrainingStop,
+};
 use ltcguide::math::Spectrum;
 use ltcguide::sampling::Rng;
 
@@ -265,10 +267,11 @@ fn schedule_doubles_and_stops_when_the_rest_is_less_than_twice_the_next() {
 
 #[test]
 fn schedule_stops_when_extrapolated_variance_rises() {
+    let variance_rule = |budget| Schedule::with_stop(budget, TrainingStop::Variance);
     // No learning gain at all: per-sample variance is constant, so after
     // iteration j the final image would have variance V/remaining_j, which
     // grows as the budget is spent: stop as soon as two points exist.
-    let steps = run(Schedule::new(Budget::Spp(1024)), |_| 1.0);
+    let steps = run(variance_rule(Budget::Spp(1024)), |_| 1.0);
     assert_eq!(
         steps[0],
         Step::Train {
@@ -293,7 +296,7 @@ fn schedule_stops_when_extrapolated_variance_rises() {
     // Strong learning over 3 iterations, then none: training stops after
     // the first iteration that brought nothing.
     let v = |k: u32| if k <= 3 { 0.1f64.powi(k as i32) } else { 1e-3 };
-    let steps = run(Schedule::new(Budget::Spp(4096)), v);
+    let steps = run(variance_rule(Budget::Spp(4096)), v);
     let last_train = steps
         .iter()
         .filter_map(|s| match s {
@@ -302,11 +305,75 @@ fn schedule_stops_when_extrapolated_variance_rises() {
         })
         .max();
     assert_eq!(last_train, Some(4));
-    // With the rule off, the budget rule alone decides.
-    let mut s = Schedule::new(Budget::Spp(1024));
-    s.variance_rule = false;
-    let steps = run(s, |_| 1.0);
+    // With the rule off, the default, the budget rule alone decides.
+    let steps = run(Schedule::new(Budget::Spp(1024)), |_| 1.0);
     assert_eq!(steps.len(), 11); // 9 training iterations (511 spp), final 513, done
+    let steps = run(
+        Schedule::with_stop(Budget::Spp(1024), TrainingStop::Budget),
+        |_| 1.0,
+    );
+    assert_eq!(steps.len(), 11);
+}
+
+/// Learning that sets in late, as on veach-ajar and veach-mis: the
+/// per-sample variance stays flat over iterations 2–4, then falls 3× per
+/// iteration. The variance rule reads the plateau as the end of learning
+/// and stops after the 8-spp iteration; the default trains until the
+/// budget rule, and says which rule ended training.
+#[test]
+fn a_late_learner_trains_to_the_budget_rule_by_default() {
+    // Below 4 spp the renderer reports no variance (the rule waits).
+    let late = |k: u32| match k {
+        0 | 1 => f64::INFINITY,
+        2..=4 => 500.0,
+        _ => 500.0 / 3f64.powi(k as i32 - 4),
+    };
+    let last_trained = |steps: &[Step]| {
+        steps
+            .iter()
+            .filter_map(|s| match s {
+                Step::Train { iteration, .. } => Some(*iteration),
+                _ => None,
+            })
+            .max()
+    };
+    let with_variance = run(
+        Schedule::with_stop(Budget::Spp(256), TrainingStop::Variance),
+        late,
+    );
+    // E_3 = 500/241 > E_2 = 500/249: stop after the 8-spp iteration, as
+    // radiance guiding did on veach-ajar at 120 s (seed 2).
+    assert_eq!(last_trained(&with_variance), Some(3), "{with_variance:?}");
+    // By default: iterations 0–6 (127 spp), then 129 left < 2·128 → final.
+    let default = run(Schedule::new(Budget::Spp(256)), late);
+    assert_eq!(last_trained(&default), Some(6), "{default:?}");
+    // The reason comes with the final step, and only with it.
+    let mut s = Schedule::new(Budget::Spp(256));
+    let mut reasons = vec![];
+    loop {
+        let (step, why) = s.next_with_reason();
+        let spp = match step {
+            Step::Train { spp, .. } => spp,
+            Step::Final {
+                remaining: Budget::Spp(n),
+                ..
+            } => n,
+            Step::Final { .. } => unreachable!("a sample budget"),
+            Step::Done => break,
+        };
+        reasons.push(why);
+        s.report(step, report(spp, late(reasons.len() as u32 - 1)));
+    }
+    assert_eq!(reasons.len(), 8);
+    assert!(reasons[..7].iter().all(Option::is_none), "{reasons:?}");
+    assert_eq!(reasons[7], Some(TrainingEnd::Budget));
+    let mut s = Schedule::with_stop(Budget::Spp(256), TrainingStop::Variance);
+    for k in 0..4u32 {
+        let step = s.next();
+        assert!(matches!(step, Step::Train { .. }), "{step:?}");
+        s.report(step, report(1 << k, late(k)));
+    }
+    assert_eq!(s.next_with_reason().1, Some(TrainingEnd::VarianceRose));
 }
 
 /// The renderer's combination (`combine::combine`) on two-pixel films whose

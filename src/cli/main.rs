@@ -7,9 +7,10 @@ mod study_commands;
 
 use clap::{Args, Parser, Subcommand};
 use ltcguide::film::exr_io::{read_valid_image, write_rgb};
-use ltcguide::film::metrics::{mae, relmse, relmse_tail};
+use ltcguide::film::metrics::{mae, mean_bias, relmse, relmse_tail};
 use ltcguide::film::png_io::write_png;
 use ltcguide::guiding::product::CosineLobes;
+use ltcguide::guiding::schedule::TrainingStop;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::ltc::ProductKernel;
 use ltcguide::render::{Budget, Method, RenderOptions, render};
@@ -157,6 +158,13 @@ struct RenderArgs {
     product_kernel: KernelArg,
     #[command(flatten)]
     product: ProductArgs,
+    /// Guided methods: when training ends and the final iteration starts.
+    /// `budget` (default): once the next iteration would leave less than its
+    /// own length (Müller 2017). `variance`: also once the extrapolated
+    /// final variance rises (Müller 2019), which stopped training early on
+    /// scenes whose learning sets in late (docs/results-reading.md, session 32).
+    #[arg(long, value_enum, default_value_t = TrainingStop::Budget)]
+    training_stop: TrainingStop,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -364,6 +372,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
+        training_stop: args.training_stop,
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
@@ -468,6 +477,11 @@ fn cmd_fit_ltc(out_dir: PathBuf, resolution: usize, threads: usize) -> Result<()
 /// The worst pixels `error` reports the relMSE share of: 0.1 %.
 const WORST_PIXEL_FRACTION: f64 = 1e-3;
 
+/// Side of the pixel blocks whose means give `error`'s mean-ratio noise:
+/// large enough that neighbouring blocks' errors are nearly independent,
+/// small enough that a 512×512 image has 1,024 of them.
+const BIAS_BLOCK_PIXELS: usize = 16;
+
 fn cmd_error(image: &Path, reference: &Path) -> Result<(), String> {
     let img = read_valid_image(image)?;
     let reference = read_valid_image(reference)?;
@@ -480,6 +494,22 @@ fn cmd_error(image: &Path, reference: &Path) -> Result<(), String> {
         tail.worst_share, tail.worst_pixels
     );
     println!("relmse_without_worst_0.1% {:.6e}", tail.without_worst);
+    // Whether the image is biased, beyond the noise of both images.
+    // A small image or a black reference still gets the metrics above.
+    match mean_bias(&img, &reference, BIAS_BLOCK_PIXELS) {
+        Ok(bias) => println!(
+            "mean_ratio {:.5} (image {:.6e}, reference {:.6e}; difference {:+.3e} ± {:.2e}, z {:+.2}, {} blocks of {b}×{b} pixels)",
+            bias.ratio(),
+            bias.image_mean,
+            bias.reference_mean,
+            bias.difference(),
+            bias.standard_error,
+            bias.z(),
+            bias.blocks,
+            b = BIAS_BLOCK_PIXELS
+        ),
+        Err(why) => println!("mean_ratio not computed: {why}"),
+    }
     Ok(())
 }
 

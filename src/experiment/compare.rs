@@ -14,6 +14,7 @@ use crate::film::metrics::{mae, relmse};
 use crate::film::png_io::{write_png, write_png_rgb8};
 use crate::film::write_atomic;
 use crate::guiding::product::CosineLobes;
+use crate::guiding::schedule::TrainingStop;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::render::{
     Budget, Method, RenderOptions, SnapshotPlan, render, render_side_by_side, resolve_threads,
@@ -42,6 +43,8 @@ pub struct CompareOptions {
     /// keeps its own, since ADRRS needs a guide's adjoint estimates.
     pub guided_roulette: Option<(RouletteMode, f32)>,
     /// Product guiding's weights at vertices whose lobes are all cosines.
+    /// Guided methods: the rule that ends training.
+    pub training_stop: TrainingStop,
     pub cosine_lobes: CosineLobes,
     /// Product guiding's vertices per path with product weights (0: all).
     pub product_vertices: u32,
@@ -95,6 +98,14 @@ fn path_settings(scene: &Scene, method: Method, opts: &CompareOptions) -> PathSe
             },
             _ => base,
         }
+    }
+}
+
+/// `--training-stop`'s value, as the summary's settings line names it.
+fn training_stop_name(stop: TrainingStop) -> &'static str {
+    match stop {
+        TrainingStop::Budget => "budget",
+        TrainingStop::Variance => "variance",
     }
 }
 
@@ -250,6 +261,7 @@ fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -
         // Concurrent bars would overwrite each other.
         progress: opts.progress && !opts.side_by_side,
         snapshot_times: snapshot_times(opts.seconds),
+        training_stop: opts.training_stop,
         cosine_lobes: opts.cosine_lobes,
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
@@ -365,7 +377,15 @@ fn summary_markdown(
             } else {
                 String::new()
             };
-            format!("{}: {nee}, roulette {rr}{cosine}", method_name(m))
+            let training = if m == Method::Pt {
+                String::new()
+            } else {
+                format!(
+                    ", training stops: {}",
+                    training_stop_name(opts.training_stop)
+                )
+            };
+            format!("{}: {nee}, roulette {rr}{training}{cosine}", method_name(m))
         })
         .collect();
     let _ = writeln!(

@@ -1,6 +1,7 @@
 //! Error metrics of DESIGN.md §6, computed in f64.
 
 use super::image::Image;
+use crate::math::Spectrum;
 
 /// ε of relMSE's normaliser R² + ε (DESIGN §6): keeps dark pixels from
 /// dominating.
@@ -87,6 +88,101 @@ pub fn relmse_tail(image: &Image, reference: &Image, fraction: f64) -> Result<Re
     })
 }
 
+/// Whether an image is brighter or darker than its reference beyond their
+/// noise. relMSE and MAE cannot tell a noisy image from a biased one; the
+/// mean difference can, if its noise is known. Neighbouring pixels' errors
+/// are correlated (shared paths, filter, guiding structures), so the noise
+/// is estimated from the means of square blocks of pixels, not from single
+/// pixels: with n blocks of means d_b, the standard error is the spread of
+/// the d_b over √n. The reference's own noise is part of that spread.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeanBias {
+    /// Mean over pixels and channels of the image.
+    pub image_mean: f64,
+    /// The same for the reference.
+    pub reference_mean: f64,
+    /// Standard error of `image_mean − reference_mean`.
+    pub standard_error: f64,
+    /// Number of blocks the standard error was estimated from.
+    pub blocks: usize,
+}
+
+impl MeanBias {
+    pub fn difference(&self) -> f64 {
+        self.image_mean - self.reference_mean
+    }
+
+    /// image mean / reference mean.
+    pub fn ratio(&self) -> f64 {
+        self.image_mean / self.reference_mean
+    }
+
+    /// The difference in standard errors: beyond ±4 the two means differ by
+    /// more than this estimate of their noise explains. 0 for equal means,
+    /// ±∞ for different means without noise.
+    pub fn z(&self) -> f64 {
+        let d = self.difference();
+        if d == 0.0 {
+            0.0
+        } else {
+            d / self.standard_error
+        }
+    }
+}
+
+/// [`MeanBias`] with blocks of `block`×`block` pixels (partial blocks at the
+/// right and bottom edges are left out of the standard error, not of the
+/// means). Needs at least 8 whole blocks, finite pixels, and a reference
+/// with a positive mean.
+pub fn mean_bias(image: &Image, reference: &Image, block: usize) -> Result<MeanBias, String> {
+    check_sizes(image, reference)?;
+    if block == 0 {
+        return Err("the block size must be at least 1 pixel".into());
+    }
+    let (bw, bh) = (image.width / block, image.height / block);
+    if bw * bh < 8 {
+        return Err(format!(
+            "a {}×{} image holds {} whole blocks of {block}×{block} pixels; the standard error needs 8",
+            image.width,
+            image.height,
+            bw * bh
+        ));
+    }
+    let channel_mean = |p: &Spectrum| (p.x as f64 + p.y as f64 + p.z as f64) / 3.0;
+    let n = image.pixels.len() as f64;
+    let image_mean = image.pixels.iter().map(channel_mean).sum::<f64>() / n;
+    let reference_mean = reference.pixels.iter().map(channel_mean).sum::<f64>() / n;
+    if !(image_mean.is_finite() && reference_mean.is_finite()) {
+        return Err("the image or the reference holds NaN or Inf pixels".into());
+    }
+    if !(reference_mean > 0.0) {
+        return Err("the reference is black: its mean is not positive".into());
+    }
+    let mut block_means = Vec::with_capacity(bw * bh);
+    for by in 0..bh {
+        for bx in 0..bw {
+            let mut sum = 0.0;
+            for y in by * block..(by + 1) * block {
+                let row = y * image.width;
+                for x in bx * block..(bx + 1) * block {
+                    sum += channel_mean(&image.pixels[row + x])
+                        - channel_mean(&reference.pixels[row + x]);
+                }
+            }
+            block_means.push(sum / (block * block) as f64);
+        }
+    }
+    let m = block_means.len() as f64;
+    let mean = block_means.iter().sum::<f64>() / m;
+    let variance = block_means.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (m - 1.0);
+    Ok(MeanBias {
+        image_mean,
+        reference_mean,
+        standard_error: (variance / m).sqrt(),
+        blocks: block_means.len(),
+    })
+}
+
 fn check_sizes(image: &Image, reference: &Image) -> Result<(), String> {
     if image.width != reference.width || image.height != reference.height {
         return Err(format!(
@@ -169,5 +265,63 @@ mod tests {
         assert!(relmse_tail(&image, &reference, 1.0).is_err());
         image.pixels[3] = Vec3::new(f32::NAN, 1.0, 1.0);
         assert!(relmse_tail(&image, &reference, 1e-3).is_err());
+    }
+
+    /// A deterministic stand-in for zero-mean noise: uniform in [-1, 1).
+    fn noise(i: usize) -> f32 {
+        let h = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03;
+        let h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        ((h >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    }
+
+    #[test]
+    fn mean_bias_tells_a_biased_image_from_a_noisy_one() {
+        let (w, h) = (128, 96);
+        let reference = Image {
+            width: w,
+            height: h,
+            pixels: (0..w * h)
+                .map(|i| Vec3::splat(0.5 + 0.4 * ((i % w) as f32 / w as f32)))
+                .collect(),
+        };
+        let noisy = |scale: f32, amplitude: f32| Image {
+            width: w,
+            height: h,
+            pixels: reference
+                .pixels
+                .iter()
+                .enumerate()
+                .map(|(i, r)| *r * scale + Vec3::splat(amplitude * noise(i)))
+                .collect(),
+        };
+        // Zero-mean noise of amplitude 0.3: no bias at any block size.
+        for block in [1, 8, 16] {
+            let b = mean_bias(&noisy(1.0, 0.3), &reference, block).unwrap();
+            assert!(b.z().abs() < 4.0, "block {block}: {b:?} z {}", b.z());
+            assert!((b.ratio() - 1.0).abs() < 0.01, "{b:?}");
+        }
+        // 2 % brighter under the same noise: found, and measured.
+        let b = mean_bias(&noisy(1.02, 0.3), &reference, 16).unwrap();
+        assert!(b.z() > 4.0, "{b:?} z {}", b.z());
+        assert!((b.ratio() - 1.02).abs() < 0.005, "{b:?}");
+        assert_eq!(b.blocks, 8 * 6);
+        // Noise 30× larger hides the same 2 %.
+        let b = mean_bias(&noisy(1.02, 9.0), &reference, 16).unwrap();
+        assert!(b.z().abs() < 4.0, "{b:?} z {}", b.z());
+        // Equal images: no difference and no noise.
+        let same = mean_bias(&reference, &reference, 16).unwrap();
+        assert_eq!((same.difference(), same.z()), (0.0, 0.0));
+        // Bad input is refused with a reason.
+        assert!(mean_bias(&reference, &reference, 0).is_err());
+        assert!(mean_bias(&reference, &reference, 64).is_err());
+        let black = Image {
+            width: w,
+            height: h,
+            pixels: vec![Vec3::ZERO; w * h],
+        };
+        assert!(mean_bias(&reference, &black, 16).is_err());
+        let mut bad = reference.clone();
+        bad.pixels[5] = Vec3::splat(f32::INFINITY);
+        assert!(mean_bias(&bad, &reference, 16).is_err());
     }
 }

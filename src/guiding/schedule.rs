@@ -5,17 +5,53 @@
 //! iteration has as many samples as all previous ones together and the
 //! guide it learns from has twice the data. Before starting iteration k the
 //! schedule stops training and renders the final image with everything left
-//! when either
+//! when
 //! - the remaining budget is less than twice iteration k's (Müller 2017):
-//!   iteration k and a final of at least its length would not both fit, or
-//! - the extrapolated variance of the final image rose (2019): if training
-//!   stopped after iteration j, the final image would have variance
+//!   iteration k and a final of at least its length would not both fit;
+//! - and, with [`TrainingStop::Variance`] only, when the extrapolated
+//!   variance of the final image rose (2019): if training stopped after
+//!   iteration j, the final image would have variance
 //!   E_j = V_j · cost_j / remaining_j (variance falls as 1/budget), so once
 //!   E_{k−1} > E_{k−2}, the last iteration's improvement did not pay for the
-//!   budget it consumed, and neither will the next.
+//!   budget it consumed.
+//!
+//! The variance rule is off by default. It judges from two early, noisy
+//! iterations, and where learning sets in late it stops training before it
+//! does: on veach-ajar and veach-mis the variance per sample of the 8- and
+//! 16-spp iterations is flat, then falls 3× by 64 spp. It also decided by
+//! the seconds of one short iteration, so a run's load flipped it: with the
+//! same seed (hence the same variances), radiance guiding on veach-ajar at
+//! 240 s trained to 64 spp and ended at MAE 0.23 when its 8-spp iteration
+//! took 10.1 s, and stopped at 16 spp and ended at 0.32 when it took 8.8 s.
+//! Without the rule, every iteration's image still counts (the
+//! inverse-variance combination, `combine.rs`), so training longer costs
+//! its recording, not its samples (docs/results-reading.md, session 32).
 //!
 //! With a time budget the next iteration's cost is extrapolated from the
 //! last iteration's seconds per spp.
+
+/// When training ends (`--training-stop`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrainingStop {
+    /// Once the next iteration would leave less than its own length for
+    /// the final one (Müller 2017).
+    #[default]
+    Budget,
+    /// Also once the extrapolated variance of the final image rises
+    /// (Müller 2019; DESIGN.md §5).
+    Variance,
+}
+
+/// Why the schedule ended training.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrainingEnd {
+    /// The next iteration and a final one of its length would not both fit.
+    Budget,
+    /// The extrapolated final variance rose ([`TrainingStop::Variance`]).
+    VarianceRose,
+}
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Budget {
@@ -51,7 +87,7 @@ pub struct Schedule {
     budget: Budget,
     reports: Vec<IterationReport>,
     final_done: bool,
-    /// Apply the 2019 extrapolated-variance rule (on by default).
+    /// Apply the 2019 extrapolated-variance rule ([`TrainingStop::Variance`]).
     pub variance_rule: bool,
 }
 
@@ -61,7 +97,15 @@ impl Schedule {
             budget,
             reports: Vec::new(),
             final_done: false,
-            variance_rule: true,
+            variance_rule: false,
+        }
+    }
+
+    /// A schedule that ends training by `stop`.
+    pub fn with_stop(budget: Budget, stop: TrainingStop) -> Self {
+        Schedule {
+            variance_rule: stop == TrainingStop::Variance,
+            ..Schedule::new(budget)
         }
     }
 
@@ -109,13 +153,19 @@ impl Schedule {
 
     /// What to do next.
     pub fn next(&self) -> Step {
+        self.next_with_reason().0
+    }
+
+    /// [`next`](Self::next), and why training ends when it returns the
+    /// final iteration (`None` otherwise).
+    pub fn next_with_reason(&self) -> (Step, Option<TrainingEnd>) {
         let k = self.reports.len();
         let remaining = self.remaining_after(k);
         if self.final_done
             || remaining <= 0.0
             || (matches!(self.budget, Budget::Spp(_)) && remaining < 1.0)
         {
-            return Step::Done;
+            return (Step::Done, None);
         }
         let iteration = k as u32;
         let spp = 1u64 << k.min(62);
@@ -132,7 +182,7 @@ impl Schedule {
             remaining: self.remaining_budget(remaining),
         };
         if remaining < 2.0 * next_cost {
-            return finish;
+            return (finish, Some(TrainingEnd::Budget));
         }
         if self.variance_rule && k >= 2 {
             let (a, b) = (
@@ -140,10 +190,10 @@ impl Schedule {
                 self.extrapolated_final_variance(k - 1),
             );
             if a.is_finite() && b.is_finite() && b > a {
-                return finish;
+                return (finish, Some(TrainingEnd::VarianceRose));
             }
         }
-        Step::Train { iteration, spp }
+        (Step::Train { iteration, spp }, None)
     }
 
     /// Reports the iteration that [`Schedule::next`] asked for.

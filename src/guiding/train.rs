@@ -9,7 +9,9 @@ use super::combine::{combine, combine_counting, iteration_variance, pooled_mean}
 use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
 use super::record::{RecordStats, passes_within_record_budget, record_pass};
-use super::schedule::{Budget as ScheduleBudget, IterationReport, Schedule, Step};
+use super::schedule::{
+    Budget as ScheduleBudget, IterationReport, Schedule, Step, TrainingEnd, TrainingStop,
+};
 use super::sdtree::{SdTree, SdTreeConfig};
 use super::trial::{Strategy, StrategyTrial, TRIAL_PASSES};
 use crate::film::image::{Film, Image};
@@ -64,6 +66,10 @@ pub struct GuidingStats {
     /// Iterations left out of the final image because their variance was
     /// not finite (see [`combine_counting`]).
     pub iterations_dropped_nonfinite_variance: u64,
+    /// The rule that ends training (`--training-stop`).
+    pub training_stop: TrainingStop,
+    /// Which rule ended it; `None` when the budget ran out while training.
+    pub training_ended_by: Option<TrainingEnd>,
     /// Non-empty when guiding was dropped because it did not pay.
     pub fallback: String,
     /// Guided passes rendered before a fallback and left out of the image.
@@ -117,10 +123,14 @@ pub fn render_guided<M: WeightModel>(
         ..SdTreeConfig::default()
     };
     let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, config);
-    let mut schedule = Schedule::new(match opts.budget {
-        Budget::Spp(n) => ScheduleBudget::Spp(n as u64),
-        Budget::Seconds(s) => ScheduleBudget::Seconds(s),
-    });
+    let mut schedule = Schedule::with_stop(
+        match opts.budget {
+            Budget::Spp(n) => ScheduleBudget::Spp(n as u64),
+            Budget::Seconds(s) => ScheduleBudget::Seconds(s),
+        },
+        opts.training_stop,
+    );
+    let mut training_ended_by = None;
     let mut films: Vec<Film> = Vec::new();
     // The last film's per-pixel spread about its own mean (empty below 4
     // spp), kept from its `mean_variance` for `last_iteration_variance`.
@@ -156,7 +166,8 @@ pub fn render_guided<M: WeightModel>(
         |films: &[Film], current: &Film| films.iter().map(|f| f.spp).sum::<u32>() + current.spp;
 
     loop {
-        let step = schedule.next();
+        let (step, end) = schedule.next_with_reason();
+        training_ended_by = training_ended_by.or(end);
         let t0 = clock.seconds();
         let (iteration, training, target) = match step {
             Step::Done => break,
@@ -391,6 +402,8 @@ pub fn render_guided<M: WeightModel>(
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
         iterations_dropped_nonfinite_variance: iterations_dropped,
+        training_stop: opts.training_stop,
+        training_ended_by,
         fallback,
         left_out_spp,
         weights_check,

@@ -42,6 +42,7 @@ pub fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
         path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: None,
+        training_stop: ltcguide::guiding::schedule::TrainingStop::Budget,
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,
         pixel_reuse: true,
