@@ -413,6 +413,13 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
     assert_eq!(image_spp, product.stats.spp);
     let weights: f64 = guiding.iterations.iter().map(|i| i.weight).sum();
     assert!((weights - 1.0).abs() < 1e-9, "weights sum to {weights}");
+    // 1 + 2 + 4 + 8 + 16 spp trained, 17 left < 2·32: the budget rule,
+    // the default, ended training, and the stats say so.
+    use ltcguide::guiding::schedule::{TrainingEnd, TrainingStop};
+    assert_eq!(guiding.training_stop, TrainingStop::Budget);
+    assert_eq!(guiding.training_ended_by, Some(TrainingEnd::Budget));
+    let trained: Vec<u32> = guiding.iterations.iter().filter(|i| i.training).map(|i| i.spp).collect();
+    assert_eq!(trained, [1, 2, 4, 8, 16]);
     assert_agrees_with_pt("own scene, product with weights check vs pt", &product);
 
     let unplanned = RenderOptions {

@@ -42,9 +42,9 @@ pub struct CompareOptions {
     /// window ratio s (`None`: as `path_for` says). Unguided path tracing
     /// keeps its own, since ADRRS needs a guide's adjoint estimates.
     pub guided_roulette: Option<(RouletteMode, f32)>,
-    /// Product guiding's weights at vertices whose lobes are all cosines.
     /// Guided methods: the rule that ends training.
     pub training_stop: TrainingStop,
+    /// Product guiding's weights at vertices whose lobes are all cosines.
     pub cosine_lobes: CosineLobes,
     /// Product guiding's vertices per path with product weights (0: all).
     pub product_vertices: u32,
