@@ -109,12 +109,17 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     // The roulette override reaches the guided methods only, and the
     // summary says what every method ran with.
     assert!(summary.contains("pt: NEE, roulette classic"), "{summary}");
+    // The guided methods' training rule is named (so runs across rules never pool); pt has none.
     assert!(
-        summary.contains("radiance: no NEE, roulette off"),
+        summary.contains("radiance: no NEE, roulette off, training stops: budget;"),
         "{summary}"
     );
     assert!(
-        summary.contains("product: no NEE, roulette off"),
+        summary.contains("product: no NEE, roulette off, training stops: budget, "),
+        "{summary}"
+    );
+    assert!(
+        !summary.contains("pt: NEE, roulette classic, training"),
         "{summary}"
     );
     // Each mean curve ends at the mean of its runs' final errors, the

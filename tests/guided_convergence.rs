@@ -418,7 +418,12 @@ fn product_measures_its_weights_against_radiance_weights_without_bias() {
     use ltcguide::guiding::schedule::{TrainingEnd, TrainingStop};
     assert_eq!(guiding.training_stop, TrainingStop::Budget);
     assert_eq!(guiding.training_ended_by, Some(TrainingEnd::Budget));
-    let trained: Vec<u32> = guiding.iterations.iter().filter(|i| i.training).map(|i| i.spp).collect();
+    let trained: Vec<u32> = guiding
+        .iterations
+        .iter()
+        .filter(|i| i.training)
+        .map(|i| i.spp)
+        .collect();
     assert_eq!(trained, [1, 2, 4, 8, 16]);
     assert_agrees_with_pt("own scene, product with weights check vs pt", &product);
 

@@ -101,14 +101,6 @@ fn path_settings(scene: &Scene, method: Method, opts: &CompareOptions) -> PathSe
     }
 }
 
-/// `--training-stop`'s value, as the summary's settings line names it.
-fn training_stop_name(stop: TrainingStop) -> &'static str {
-    match stop {
-        TrainingStop::Budget => "budget",
-        TrainingStop::Variance => "variance",
-    }
-}
-
 pub fn method_name(m: Method) -> String {
     format!("{m:?}").to_lowercase()
 }
@@ -380,10 +372,7 @@ fn summary_markdown(
             let training = if m == Method::Pt {
                 String::new()
             } else {
-                format!(
-                    ", training stops: {}",
-                    training_stop_name(opts.training_stop)
-                )
+                format!(", training stops: {:?}", opts.training_stop).to_lowercase()
             };
             format!("{}: {nee}, roulette {rr}{training}{cosine}", method_name(m))
         })
