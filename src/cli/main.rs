@@ -84,6 +84,18 @@ enum Command {
     },
 }
 
+/// The guided methods' training schedule, shared by render and compare.
+#[derive(Args, Clone, Debug)]
+pub struct ScheduleArgs {
+    /// Guided methods: when training ends and the final iteration starts.
+    /// `budget` (default): once the next iteration would leave less than its
+    /// own length (Müller 2017). `variance`: also once the extrapolated
+    /// final variance rises (Müller 2019), which stopped training early on
+    /// scenes whose learning sets in late (docs/results-reading.md, session 32).
+    #[arg(long, value_enum, default_value_t = TrainingStop::Budget)]
+    pub training_stop: TrainingStop,
+}
+
 /// Product guiding's settings, shared by render and compare.
 #[derive(Args, Clone, Debug)]
 pub struct ProductArgs {
@@ -158,13 +170,8 @@ struct RenderArgs {
     product_kernel: KernelArg,
     #[command(flatten)]
     product: ProductArgs,
-    /// Guided methods: when training ends and the final iteration starts.
-    /// `budget` (default): once the next iteration would leave less than its
-    /// own length (Müller 2017). `variance`: also once the extrapolated
-    /// final variance rises (Müller 2019), which stopped training early on
-    /// scenes whose learning sets in late (docs/results-reading.md, session 32).
-    #[arg(long, value_enum, default_value_t = TrainingStop::Budget)]
-    training_stop: TrainingStop,
+    #[command(flatten)]
+    schedule: ScheduleArgs,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -372,7 +379,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
-        training_stop: args.training_stop,
+        training_stop: args.schedule.training_stop,
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,

@@ -2,11 +2,10 @@
 //! and pooling (`replot`, `merge`), the paper's Table 1 (`ablation`) and
 //! the product's attribution (`attribute`).
 
-use crate::{ProductArgs, load};
+use crate::{ProductArgs, ScheduleArgs, load};
 use clap::Args;
 use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::read_valid_image;
-use ltcguide::guiding::schedule::TrainingStop;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::render::Method;
 use ltcguide::scene::Scene;
@@ -45,13 +44,8 @@ pub struct CompareArgs {
     /// ADRRS's weight-window ratio s for the guided methods (as for render).
     #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
     adrrs_window: f32,
-    /// Guided methods: when training ends and the final iteration starts.
-    /// `budget` (default): once the next iteration would leave less than its
-    /// own length (Müller 2017). `variance`: also once the extrapolated
-    /// final variance rises (Müller 2019), which stopped training early on
-    /// scenes whose learning sets in late (docs/results-reading.md, session 32).
-    #[arg(long, value_enum, default_value_t = TrainingStop::Budget)]
-    training_stop: TrainingStop,
+    #[command(flatten)]
+    schedule: ScheduleArgs,
     #[command(flatten)]
     product: ProductArgs,
     /// Render the methods of each run at the same time, each on an equal
@@ -105,7 +99,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         path_for: default_path_settings,
         nee: args.nee,
         guided_roulette: Some((args.guided_rr, args.adrrs_window)),
-        training_stop: args.training_stop,
+        training_stop: args.schedule.training_stop,
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,

@@ -87,8 +87,7 @@ pub struct Schedule {
     budget: Budget,
     reports: Vec<IterationReport>,
     final_done: bool,
-    /// Apply the 2019 extrapolated-variance rule ([`TrainingStop::Variance`]).
-    pub variance_rule: bool,
+    stop: TrainingStop,
 }
 
 impl Schedule {
@@ -97,14 +96,14 @@ impl Schedule {
             budget,
             reports: Vec::new(),
             final_done: false,
-            variance_rule: false,
+            stop: TrainingStop::default(),
         }
     }
 
     /// A schedule that ends training by `stop`.
     pub fn with_stop(budget: Budget, stop: TrainingStop) -> Self {
         Schedule {
-            variance_rule: stop == TrainingStop::Variance,
+            stop,
             ..Schedule::new(budget)
         }
     }
@@ -184,7 +183,7 @@ impl Schedule {
         if remaining < 2.0 * next_cost {
             return (finish, Some(TrainingEnd::Budget));
         }
-        if self.variance_rule && k >= 2 {
+        if self.stop == TrainingStop::Variance && k >= 2 {
             let (a, b) = (
                 self.extrapolated_final_variance(k - 2),
                 self.extrapolated_final_variance(k - 1),
