@@ -258,7 +258,8 @@ fn compare_nee_choice_reaches_every_method() {
 
 /// Side by side, the methods of a run render at once on a share of the
 /// threads: every method and run still yields its snapshots and final row,
-/// in method order, and the summary says how the threads were shared.
+/// in method order, and the summary says how the threads were shared and
+/// what the plan decided in every run, a method's runs together.
 #[test]
 fn compare_side_by_side_runs_every_method_and_says_so() {
     let scene = tiny();
@@ -316,6 +317,21 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
         "{}",
         outcome.summary
     );
+    let plan_lines: Vec<&str> = outcome
+        .summary
+        .lines()
+        .filter(|l| l.contains("plan: method"))
+        .collect();
+    let expected = ["pt", "radiance", "product"].iter().flat_map(|m| {
+        [1000, 1001].map(move |seed| format!("- {m}, seed {seed}: plan: method {m} "))
+    });
+    assert_eq!(plan_lines.len(), 6, "{}", outcome.summary);
+    for (line, prefix) in plan_lines.iter().zip(expected) {
+        assert!(
+            line.starts_with(&prefix),
+            "{line:?} should start with {prefix:?}"
+        );
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

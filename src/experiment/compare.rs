@@ -136,7 +136,8 @@ pub fn run_compare(
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
     let mut rows = Vec::new();
-    let mut notes = Vec::new();
+    // One list per method, so that a method's runs stand together in the summary.
+    let mut plan_notes = vec![Vec::new(); opts.methods.len()];
     let mut guard_notes = Vec::new();
     // Runs outer, methods inner: a shared machine's load drifts over a
     // study, and interleaving makes every method's runs meet the same drift
@@ -178,7 +179,9 @@ pub fn run_compare(
                 })
                 .collect()
         };
-        for (&method, result) in opts.methods.iter().zip(results) {
+        for ((&method, result), method_plans) in
+            opts.methods.iter().zip(results).zip(&mut plan_notes)
+        {
             let result = result?;
             let name = method_name(method);
             for s in &result.snapshots {
@@ -199,16 +202,18 @@ pub fn run_compare(
                 mae: mae(&result.image, reference)?,
                 relmse: relmse(&result.image, reference)?,
             });
+            let seed = result.stats.seed;
             let guards = &result.stats.guards;
             if guards.total() > 0 {
-                let seed = result.stats.seed;
                 guard_notes.push(format!("{name}, seed {seed}: {}", guards.describe()));
+            }
+            // Every run's plan, not the first's alone: a trial decides per run whether a guided
+            // method keeps guiding, and a ratio of runs that decided differently means something else.
+            if let Some(plan) = &result.stats.plan {
+                method_plans.push(format!("{name}, seed {seed}: {plan}"));
             }
             if index == 0 {
                 write_final_images(&opts.out_dir, &name, &result.image, reference)?;
-                if let Some(plan) = &result.stats.plan {
-                    notes.push(format!("{name}: {plan}"));
-                }
             }
         }
     }
@@ -224,6 +229,7 @@ pub fn run_compare(
         .collect();
     let svg = curves_svg(&curves_title(&scene.name, opts.runs as usize), &curves)?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
+    let notes = plan_notes.concat();
     let summary = summary_markdown(scene, opts, &rows, &curves, &notes, &guard_notes);
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
     Ok(CompareOutcome {
