@@ -118,8 +118,10 @@ pub struct RenderStats {
     pub spp: u32,
     pub seconds: f64,
     pub paths_per_second: f64,
-    /// CPU time of all threads during the render (snapshots included): on
-    /// a shared machine it compares builds where wall time cannot.
+    /// CPU time of the render's own threads (snapshots included; NaN if
+    /// the clock cannot be read). On a shared machine it compares builds
+    /// where wall time cannot; side by side, it holds this render's share
+    /// of the cores alone.
     pub cpu_seconds: f64,
     pub rays_per_second: f64,
     pub threads: usize,
@@ -171,17 +173,26 @@ pub fn progress_bar(enabled: bool, len: u64, what: &str) -> Option<indicatif::Pr
     Some(bar)
 }
 
-/// CPU time consumed so far by every thread of the process.
-fn process_cpu_seconds() -> f64 {
+/// CPU time the calling thread has consumed so far (NaN where the clock
+/// cannot be read).
+fn thread_cpu_seconds() -> f64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
     // SAFETY: `ts` is a valid timespec for the call to fill in.
-    if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } != 0 {
+    if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } != 0 {
         return f64::NAN;
     }
     ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// CPU time consumed so far by the threads of `pool`. A render's work runs
+/// on its own pool alone, so this is its CPU time even while other renders
+/// share the process (side by side), where the process's clock would count
+/// theirs too.
+fn pool_cpu_seconds(pool: &rayon::ThreadPool) -> f64 {
+    pool.broadcast(|_| thread_cpu_seconds()).into_iter().sum()
 }
 
 /// The plan a run with `opts` follows: the per-scene plan, or with
@@ -207,7 +218,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);
-    let cpu_before = process_cpu_seconds();
+    let cpu_before = pool_cpu_seconds(&pool);
     let mut clock = RenderClock::start();
     let mut snapshots = SnapshotPlan::at(opts.snapshot_times.clone());
     let (len, what) = match opts.budget {
@@ -282,7 +293,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         b.finish_and_clear();
     }
     let seconds = clock.seconds();
-    let cpu_seconds = process_cpu_seconds() - cpu_before;
+    let cpu_seconds = pool_cpu_seconds(&pool) - cpu_before;
     let mean = image.mean_rgb();
     // The pool's threads were started for this render, so every event
     // their counts hold is this render's (see crate::guards).

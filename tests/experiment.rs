@@ -5,6 +5,7 @@ mod common;
 
 use common::study::{compare_options, flat_reference, settings, tiny};
 use ltcguide::experiment::compare::{CompareOptions, run_compare};
+use ltcguide::experiment::cost::{COST_CSV, COST_HEADING, parse_cost_csv};
 use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
 use ltcguide::film::exr_io::write_rgb;
 use ltcguide::film::image::Image;
@@ -332,6 +333,43 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
             "{line:?} should start with {prefix:?}"
         );
     }
+    // runs.csv: every run's wall and CPU seconds and spp, those of its final
+    // curve row, its CPU that of its one thread (at most its wall time).
+    let costs = parse_cost_csv(&std::fs::read_to_string(dir.join(COST_CSV)).unwrap()).unwrap();
+    let cost_order: Vec<(&str, u32)> = costs.iter().map(|c| (c.method.as_str(), c.run)).collect();
+    assert_eq!(cost_order, order);
+    for c in &costs {
+        let last = outcome
+            .rows
+            .iter()
+            .rfind(|r| r.method == c.method && r.run == c.run)
+            .unwrap();
+        assert_eq!(c.spp, last.spp);
+        assert!((c.seconds - last.seconds).abs() < 1e-5);
+        let cpu = c.cpu_seconds.expect("Linux has a per-thread CPU clock");
+        assert!(
+            cpu > 0.0 && cpu <= c.seconds * 1.05 + 0.05,
+            "{} run {}: {cpu} CPU s in {} s on one thread",
+            c.method,
+            c.run,
+            c.seconds
+        );
+    }
+    let cost_lines: Vec<&str> = outcome
+        .summary
+        .lines()
+        .skip_while(|l| *l != COST_HEADING)
+        .filter(|l| {
+            l.starts_with("| pt |") || l.starts_with("| radiance |") || l.starts_with("| product |")
+        })
+        .collect();
+    assert_eq!(cost_lines.len(), 3, "{}", outcome.summary);
+    // Radiance is the base: its three ratios are 1.
+    assert!(
+        cost_lines[1].ends_with("| 1.000 | 1.000 | 1.000 |"),
+        "{}",
+        cost_lines[1]
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -7,6 +7,7 @@ mod common;
 
 use common::study::{compare_options, flat_reference, tiny};
 use ltcguide::experiment::compare::{CompareOptions, run_compare};
+use ltcguide::experiment::cost::{COST_CSV, COST_HEADING, CostRow, parse_cost_csv};
 use ltcguide::experiment::curves::{CurveRow, parse_csv};
 use ltcguide::experiment::merge::merge;
 use ltcguide::render::Method;
@@ -30,6 +31,10 @@ fn study(dir: &Path, first_run: u32, runs: u32, seconds: f64) -> Vec<CurveRow> {
 
 fn rows_in(dir: &Path) -> Vec<CurveRow> {
     parse_csv(&std::fs::read_to_string(dir.join("curves.csv")).unwrap()).unwrap()
+}
+
+fn costs_in(dir: &Path) -> Vec<CostRow> {
+    parse_cost_csv(&std::fs::read_to_string(dir.join(COST_CSV)).unwrap()).unwrap()
 }
 
 fn run_cli(args: &[&std::ffi::OsStr]) -> std::process::Output {
@@ -103,6 +108,29 @@ fn merged_comparisons_pool_every_run_and_recompute_the_tables() {
     );
     assert!(s.contains("Time-to-error speedup"), "{s}");
     assert_eq!(std::fs::read_to_string(out.join("summary.md")).unwrap(), *s);
+    // runs.csv pools every run's cost, grouped by method then run.
+    let costs = costs_in(&out);
+    let keys: Vec<(&str, u32)> = costs.iter().map(|c| (c.method.as_str(), c.run)).collect();
+    assert_eq!(
+        keys,
+        [
+            ("pt", 0),
+            ("pt", 1),
+            ("pt", 2),
+            ("radiance", 0),
+            ("radiance", 1),
+            ("radiance", 2)
+        ]
+    );
+    for c in &costs {
+        let last = pooled
+            .iter()
+            .rfind(|r| r.method == c.method && r.run == c.run)
+            .unwrap();
+        assert_eq!(c.spp, last.spp);
+    }
+    assert!(s.contains(COST_HEADING), "{s}");
+    assert!(!s.contains("predate"), "{s}");
     let svg = std::fs::read_to_string(out.join("curves.svg")).unwrap();
     assert!(svg.contains("(3 runs)"));
     // The pooled folder is a comparison itself: replot recomputes its
@@ -152,6 +180,50 @@ fn merge_refuses_a_seed_twice_and_different_studies() {
     assert!(String::from_utf8_lossy(&cli.stderr).contains("is in both"));
     assert!(!out.exists());
     for d in [a, b, c] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
+    let (a, b, out) = (temp("ca"), temp("cb"), temp("cout"));
+    study(&a, 0, 1, 0.2);
+    study(&b, 1, 1, 0.2);
+    // A comparison made before runs.csv existed: the pooled table covers the
+    // other's runs and names the one left out.
+    std::fs::remove_file(a.join(COST_CSV)).unwrap();
+    let merged = merge(&out, &[a.clone(), b.clone()]).unwrap();
+    let runs: Vec<u32> = costs_in(&out).iter().map(|c| c.run).collect();
+    assert_eq!(runs, [1, 1]);
+    assert!(
+        merged.summary.contains(COST_HEADING)
+            && merged
+                .summary
+                .contains(&format!("`{}` (seeds 1000) predate", a.display())),
+        "{}",
+        merged.summary
+    );
+    // No source with costs: no table, and no stale runs.csv in `out`.
+    let c = temp("cc");
+    study(&c, 2, 1, 0.2);
+    std::fs::remove_file(b.join(COST_CSV)).unwrap();
+    std::fs::remove_file(c.join(COST_CSV)).unwrap();
+    let merged = merge(&out, &[a.clone(), b.clone(), c.clone()]).unwrap();
+    assert!(!merged.summary.contains(COST_HEADING));
+    assert!(!out.join(COST_CSV).exists());
+    // A runs.csv that lacks a run of curves.csv is refused, nothing written.
+    study(&b, 1, 1, 0.2);
+    let text = std::fs::read_to_string(b.join(COST_CSV)).unwrap();
+    let cut: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.starts_with("radiance,"))
+        .collect();
+    std::fs::write(b.join(COST_CSV), cut.join("\n")).unwrap();
+    let fresh = temp("cfresh");
+    let err = merge(&fresh, &[a.clone(), b.clone()]).unwrap_err();
+    assert!(err.contains("one row for each run"), "{err}");
+    assert!(!fresh.exists());
+    for d in [a, b, c, out] {
         std::fs::remove_dir_all(d).ok();
     }
 }

@@ -4,6 +4,7 @@
 //! error maps.
 
 use super::colormap::log_scale_rgb;
+use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
 use super::curves::{
     CurveRow, MeanCurve, mean_curve, mean_std, parse_csv, run_numbers, time_to_error, to_csv,
 };
@@ -136,6 +137,7 @@ pub fn run_compare(
     std::fs::create_dir_all(&opts.out_dir)
         .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
     let mut rows = Vec::new();
+    let mut cost_rows = Vec::new();
     // One list per method, so that a method's runs stand together in the summary.
     let mut plan_notes = vec![Vec::new(); opts.methods.len()];
     let mut guard_notes = Vec::new();
@@ -202,6 +204,13 @@ pub fn run_compare(
                 mae: mae(&result.image, reference)?,
                 relmse: relmse(&result.image, reference)?,
             });
+            cost_rows.push(CostRow {
+                method: name.clone(),
+                run,
+                seconds: result.stats.seconds,
+                cpu_seconds: Some(result.stats.cpu_seconds).filter(|c| c.is_finite()),
+                spp: result.stats.spp,
+            });
             let seed = result.stats.seed;
             let guards = &result.stats.guards;
             if guards.total() > 0 {
@@ -222,6 +231,9 @@ pub fn run_compare(
     // Every figure below comes from the rows as the CSV holds them, so that
     // `replot` recomputes the curves and the summary exactly from the CSV.
     let rows = parse_csv(&csv)?;
+    let cost_csv = to_cost_csv(&cost_rows);
+    write_atomic(&opts.out_dir.join(COST_CSV), cost_csv.as_bytes())?;
+    let cost_rows = parse_cost_csv(&cost_csv)?;
     let curves: Vec<MeanCurve> = opts
         .methods
         .iter()
@@ -230,7 +242,14 @@ pub fn run_compare(
     let svg = curves_svg(&curves_title(&scene.name, opts.runs as usize), &curves)?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
     let notes = plan_notes.concat();
-    let summary = summary_markdown(scene, opts, &rows, &curves, &notes, &guard_notes);
+    let summary = summary_markdown(
+        scene,
+        opts,
+        (&rows, &cost_rows),
+        &curves,
+        &notes,
+        &guard_notes,
+    );
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
     Ok(CompareOutcome {
         rows,
@@ -326,7 +345,7 @@ pub fn cpu_model() -> String {
 fn summary_markdown(
     scene: &Scene,
     opts: &CompareOptions,
-    rows: &[CurveRow],
+    (rows, cost_rows): (&[CurveRow], &[CostRow]),
     curves: &[MeanCurve],
     notes: &[String],
     guard_notes: &[String],
@@ -395,6 +414,8 @@ fn summary_markdown(
     );
     s.push_str(&final_errors_table(rows, curves));
     s.push_str(&speedup_section(curves));
+    let methods: Vec<String> = opts.methods.iter().map(|&m| method_name(m)).collect();
+    s.push_str(&cost_section(cost_rows, &methods));
     if !notes.is_empty() {
         let _ = writeln!(s, "\n## Per-scene plan\n");
         for n in notes {
@@ -413,7 +434,8 @@ fn summary_markdown(
     }
     let _ = writeln!(
         s,
-        "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`, `<method>.exr/png` (first run), \
+        "\nFiles: `curves.csv` (every snapshot of every run), `{COST_CSV}` (every run's wall and CPU \
+         seconds and spp), `curves.svg`, `<method>.exr/png` (first run), \
          `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
     );
     s

@@ -13,6 +13,7 @@ use super::compare::{
     SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase, seeds_phrase,
     speedup_section,
 };
+use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
 use super::curves::{
     CurveRow, MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers, to_csv,
 };
@@ -125,12 +126,13 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
         }
         let summary = parse_summary(&read("summary.md")?)
             .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;
-        parsed.push((dir, rows, summary));
+        let cost = read_costs(dir, &rows)?;
+        parsed.push((dir, rows, summary, cost));
     }
-    let (first_dir, first_rows, first) = &parsed[0];
+    let (first_dir, first_rows, first, _) = &parsed[0];
     let methods = methods_in_order(first_rows);
     let mut seen: Vec<(u32, &PathBuf)> = Vec::new();
-    for (dir, rows, s) in &parsed {
+    for (dir, rows, s, _) in &parsed {
         let differs = |what: &str, a: &str, b: &str| {
             format!(
                 "{} and {} differ in {what} ('{a}' against '{b}'): only comparisons of the same \
@@ -187,7 +189,7 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     let mut pooled: Vec<CurveRow> = Vec::new();
     for method in &methods {
         let mut runs: Vec<(u32, Vec<CurveRow>)> = Vec::new();
-        for (_, rows, _) in &parsed {
+        for (_, rows, _, _) in &parsed {
             for run in run_numbers(rows) {
                 let own = rows
                     .iter()
@@ -201,14 +203,43 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
         pooled.extend(runs.into_iter().flat_map(|(_, rows)| rows));
     }
     let csv = to_csv(&pooled);
+    let mut pooled_costs: Vec<CostRow> = parsed
+        .iter()
+        .filter_map(|(_, _, _, cost)| cost.as_ref())
+        .flatten()
+        .cloned()
+        .collect();
+    pooled_costs.sort_by_key(|r| {
+        (
+            methods
+                .iter()
+                .position(|m| *m == r.method)
+                .unwrap_or(usize::MAX),
+            r.run,
+        )
+    });
+    let cost_csv = to_cost_csv(&pooled_costs);
     // As in `compare`: every figure from the rows as the CSV holds them.
     let rows = parse_csv(&csv)?;
     let curves: Vec<MeanCurve> = methods.iter().map(|m| mean_curve(&rows, m)).collect();
     let runs = run_numbers(&rows);
     let svg = curves_svg(&curves_title(&first.scene, runs.len()), &curves)?;
-    let summary = pooled_summary(&parsed, &rows, &curves);
+    let pooled_costs = parse_cost_csv(&cost_csv)?;
+    let summary = pooled_summary(&parsed, &rows, &curves, &pooled_costs);
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create '{}': {e}", out.display()))?;
     write_atomic(&out.join("curves.csv"), csv.as_bytes())?;
+    let cost_path = out.join(COST_CSV);
+    if pooled_costs.is_empty() {
+        // No source recorded costs: a runs.csv left in `out` by an earlier
+        // comparison would describe runs the pooled CSV does not hold.
+        match std::fs::remove_file(&cost_path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(format!("{}: {e}", cost_path.display())),
+        }
+    } else {
+        write_atomic(&cost_path, cost_csv.as_bytes())?;
+    }
     write_atomic(&out.join("curves.svg"), svg.as_bytes())?;
     write_atomic(&out.join("summary.md"), summary.as_bytes())?;
     Ok(Merged {
@@ -219,14 +250,49 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     })
 }
 
+/// A source's `runs.csv`, if it has one (comparisons before it have none).
+/// It must hold exactly the runs of each method that `curves.csv` holds.
+fn read_costs(dir: &Path, rows: &[CurveRow]) -> Result<Option<Vec<CostRow>>, String> {
+    let path = dir.join(COST_CSV);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("{}: {e}", path.display())),
+    };
+    let costs = parse_cost_csv(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut in_costs: Vec<(&str, u32)> = costs.iter().map(|r| (r.method.as_str(), r.run)).collect();
+    let mut in_curves: Vec<(&str, u32)> = rows.iter().map(|r| (r.method.as_str(), r.run)).collect();
+    for v in [&mut in_costs, &mut in_curves] {
+        v.sort_unstable();
+    }
+    let before = in_costs.len();
+    in_costs.dedup();
+    in_curves.dedup();
+    if in_costs.len() != before || in_costs != in_curves {
+        return Err(format!(
+            "{} does not hold one row for each run of each method in curves.csv",
+            path.display()
+        ));
+    }
+    Ok(Some(costs))
+}
+
+type Source<'a> = (
+    &'a PathBuf,
+    Vec<CurveRow>,
+    SourceSummary,
+    Option<Vec<CostRow>>,
+);
+
 fn pooled_summary(
-    parsed: &[(&PathBuf, Vec<CurveRow>, SourceSummary)],
+    parsed: &[Source],
     rows: &[CurveRow],
     curves: &[MeanCurve],
+    costs: &[CostRow],
 ) -> String {
     let first = &parsed[0].2;
     let mut machines: Vec<&str> = Vec::new();
-    for (_, _, s) in parsed {
+    for (_, _, s, _) in parsed {
         if !machines.contains(&s.machine.as_str()) {
             machines.push(&s.machine);
         }
@@ -242,7 +308,7 @@ fn pooled_summary(
     );
     let sources: Vec<String> = parsed
         .iter()
-        .map(|(dir, rows, _)| {
+        .map(|(dir, rows, _, _)| {
             let runs = run_numbers(rows);
             format!("`{}` (seeds {})", dir.display(), seeds_phrase(&runs))
         })
@@ -256,10 +322,30 @@ fn pooled_summary(
     let _ = writeln!(s, "{}\n", first.settings);
     s.push_str(&final_errors_table(rows, curves));
     s.push_str(&speedup_section(curves));
+    let methods: Vec<String> = curves.iter().map(|c| c.method.clone()).collect();
+    s.push_str(&cost_section(costs, &methods));
+    let without: Vec<String> = parsed
+        .iter()
+        .filter(|(_, _, _, cost)| cost.is_none())
+        .map(|(dir, rows, _, _)| {
+            format!(
+                "`{}` (seeds {})",
+                dir.display(),
+                seeds_phrase(&run_numbers(rows))
+            )
+        })
+        .collect();
+    if !costs.is_empty() && !without.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nThe cost table covers the runs of the comparisons that recorded it; {} predate              `{COST_CSV}` and are not in it.",
+            without.join(", ")
+        );
+    }
     let section = |s: &mut String, heading: &str, pick: fn(&SourceSummary) -> &Vec<String>| {
-        if parsed.iter().any(|(_, _, src)| !pick(src).is_empty()) {
+        if parsed.iter().any(|(_, _, src, _)| !pick(src).is_empty()) {
             let _ = writeln!(s, "\n{heading}\n");
-            for (dir, _, src) in parsed {
+            for (dir, _, src, _) in parsed {
                 for item in pick(src) {
                     let _ = writeln!(s, "- `{}`: {item}", dir.display());
                 }
@@ -270,8 +356,15 @@ fn pooled_summary(
     section(&mut s, "## Guards", |src| &src.guards);
     let _ = writeln!(
         s,
-        "\nFiles: `curves.csv` (every snapshot of every run), `curves.svg`; the final images of \
-         each comparison's first run stay in its folder."
+        "\nFiles: `curves.csv` (every snapshot of every run), {}`curves.svg`; the final images of \
+         each comparison's first run stay in its folder.",
+        if costs.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "`{COST_CSV}` (the wall and CPU seconds and spp of every run that recorded them), "
+            )
+        }
     );
     s
 }

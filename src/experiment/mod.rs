@@ -5,6 +5,7 @@ pub mod ablation;
 pub mod attribution;
 pub mod colormap;
 pub mod compare;
+pub mod cost;
 pub mod curves;
 pub mod merge;
 pub mod pixel_classes;

@@ -1,0 +1,275 @@
+//! What each run of a comparison cost: wall-clock seconds, the CPU seconds
+//! of its own threads, and the samples it took (`runs.csv`).
+//!
+//! An equal-time comparison fixes wall-clock time. Side by side, the
+//! methods of a run share the cores through the OS scheduler, so a method's
+//! sample count relative to another's is the product of two ratios: the CPU
+//! time it was given (the scheduler's share) and the samples it takes per
+//! CPU second (its own cost per sample). `curves.csv` holds wall-clock time
+//! alone and cannot tell the two apart; this file can.
+
+use std::fmt::Write;
+
+/// One run of one method.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CostRow {
+    pub method: String,
+    pub run: u32,
+    /// Wall-clock seconds of the render, training included.
+    pub seconds: f64,
+    /// CPU seconds of the render's own threads; `None` where the clock could
+    /// not be read (the render reported NaN).
+    pub cpu_seconds: Option<f64>,
+    pub spp: u32,
+}
+
+pub const COST_CSV_HEADER: &str = "method,run,seconds,cpu_seconds,spp";
+
+/// The file `compare` writes next to `curves.csv`.
+pub const COST_CSV: &str = "runs.csv";
+
+pub fn to_cost_csv(rows: &[CostRow]) -> String {
+    let mut s = String::from(COST_CSV_HEADER);
+    s.push('\n');
+    for r in rows {
+        // An unreadable clock stays an empty field, not a NaN in the file.
+        let cpu = r.cpu_seconds.map_or(String::new(), |c| format!("{c:.6}"));
+        let _ = writeln!(s, "{},{},{:.6},{cpu},{}", r.method, r.run, r.seconds, r.spp);
+    }
+    s
+}
+
+pub fn parse_cost_csv(text: &str) -> Result<Vec<CostRow>, String> {
+    let mut lines = text.lines();
+    if lines.next() != Some(COST_CSV_HEADER) {
+        return Err(format!(
+            "missing or wrong header (expected '{COST_CSV_HEADER}')"
+        ));
+    }
+    lines
+        .filter(|l| !l.is_empty())
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            if f.len() != 5 {
+                return Err(format!("bad row '{l}'"));
+            }
+            let num = |s: &str| match s.parse::<f64>() {
+                Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+                _ => Err(format!(
+                    "bad number '{s}' in '{l}' (a finite value ≥ 0 expected)"
+                )),
+            };
+            Ok(CostRow {
+                method: f[0].to_string(),
+                run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
+                seconds: num(f[2])?,
+                cpu_seconds: if f[3].is_empty() {
+                    None
+                } else {
+                    Some(num(f[3])?)
+                },
+                spp: f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?,
+            })
+        })
+        .collect()
+}
+
+/// One method's totals over its runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MethodCost {
+    pub method: String,
+    pub runs: usize,
+    pub mean_seconds: f64,
+    /// `None` when any run lacks its CPU time: a mean over the others would
+    /// set different runs against each other.
+    pub mean_cpu_seconds: Option<f64>,
+    pub mean_spp: f64,
+}
+
+impl MethodCost {
+    /// Cores the method's threads kept busy on average.
+    pub fn cores_used(&self) -> Option<f64> {
+        self.mean_cpu_seconds.map(|c| c / self.mean_seconds)
+    }
+
+    /// Samples per CPU second: total samples over total CPU time, so that
+    /// spp ratio = CPU ratio × this ratio holds exactly between methods.
+    pub fn spp_per_cpu_second(&self) -> Option<f64> {
+        self.mean_cpu_seconds
+            .filter(|&c| c > 0.0)
+            .map(|c| self.mean_spp / c)
+    }
+}
+
+/// Each method's totals, in `methods`' order (methods without rows are
+/// left out).
+pub fn method_costs(rows: &[CostRow], methods: &[String]) -> Vec<MethodCost> {
+    methods
+        .iter()
+        .filter_map(|m| {
+            let own: Vec<&CostRow> = rows.iter().filter(|r| &r.method == m).collect();
+            if own.is_empty() {
+                return None;
+            }
+            let n = own.len() as f64;
+            let cpu: Option<Vec<f64>> = own.iter().map(|r| r.cpu_seconds).collect();
+            Some(MethodCost {
+                method: m.clone(),
+                runs: own.len(),
+                mean_seconds: own.iter().map(|r| r.seconds).sum::<f64>() / n,
+                mean_cpu_seconds: cpu.map(|c| c.iter().sum::<f64>() / n),
+                mean_spp: own.iter().map(|r| r.spp as f64).sum::<f64>() / n,
+            })
+        })
+        .collect()
+}
+
+/// Heading of the summary's cost section.
+pub const COST_HEADING: &str = "## Cost: wall clock, CPU and samples";
+
+/// The summary's cost section: per method, mean wall and CPU seconds,
+/// cores used and samples per CPU second, and the three ratios to
+/// `radiance` (or to the first method without one) that decompose the
+/// equal-time spp ratio.
+pub fn cost_section(rows: &[CostRow], methods: &[String]) -> String {
+    let costs = method_costs(rows, methods);
+    let Some(base) = costs
+        .iter()
+        .find(|c| c.method == "radiance")
+        .or_else(|| costs.first())
+    else {
+        return String::new();
+    };
+    let mut s = String::new();
+    let _ = writeln!(s, "\n{COST_HEADING}\n");
+    let _ = writeln!(
+        s,
+        "Means over each method's runs (`{COST_CSV}`). CPU is the CPU time of the render's own \
+         threads. At equal wall time, a method's spp ratio to `{}` is its CPU ratio (the share of \
+         the cores it was given; side by side the scheduler decides it) times its ratio of spp per \
+         CPU second (its own cost per sample, as the machine ran it).\n",
+        base.method
+    );
+    let _ = writeln!(
+        s,
+        "| method | wall s | CPU s | cores used | spp per CPU s | spp ratio | CPU ratio | spp per CPU s ratio |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+    let opt = |x: Option<f64>, digits: usize| x.map_or("—".into(), |v| format!("{v:.digits$}"));
+    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+        _ => None,
+    };
+    for c in &costs {
+        let _ = writeln!(
+            s,
+            "| {} | {:.1} | {} | {} | {} | {} | {} | {} |",
+            c.method,
+            c.mean_seconds,
+            opt(c.mean_cpu_seconds, 1),
+            opt(c.cores_used(), 2),
+            opt(c.spp_per_cpu_second(), 3),
+            opt(ratio(Some(c.mean_spp), Some(base.mean_spp)), 3),
+            opt(ratio(c.mean_cpu_seconds, base.mean_cpu_seconds), 3),
+            opt(ratio(c.spp_per_cpu_second(), base.spp_per_cpu_second()), 3),
+        );
+    }
+    if costs.iter().any(|c| c.mean_cpu_seconds.is_none()) {
+        let _ = writeln!(
+            s,
+            "\n— : a run of that method could not read its CPU clock; its CPU figures are left out."
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(method: &str, run: u32, seconds: f64, cpu: Option<f64>, spp: u32) -> CostRow {
+        CostRow {
+            method: method.into(),
+            run,
+            seconds,
+            cpu_seconds: cpu,
+            spp,
+        }
+    }
+
+    #[test]
+    fn csv_round_trips_and_rejects_bad_values() {
+        let rows = vec![
+            row("pt", 0, 10.0, Some(6.5), 100),
+            row("radiance", 0, 10.25, None, 80),
+        ];
+        assert_eq!(parse_cost_csv(&to_cost_csv(&rows)).unwrap(), rows);
+        assert!(parse_cost_csv("method,run\n").is_err());
+        for bad in ["nan", "inf", "-1", "x"] {
+            let text = format!("{COST_CSV_HEADER}\npt,0,1.0,{bad},4\n");
+            assert!(parse_cost_csv(&text).unwrap_err().contains(bad), "{bad}");
+        }
+        let short = format!("{COST_CSV_HEADER}\npt,0,1.0,4\n");
+        assert!(parse_cost_csv(&short).is_err());
+    }
+
+    #[test]
+    fn the_spp_ratio_is_the_cpu_ratio_times_the_spp_per_cpu_second_ratio() {
+        let rows = vec![
+            row("pt", 0, 10.0, Some(7.0), 140),
+            row("radiance", 0, 10.0, Some(6.0), 60),
+            row("product", 0, 10.0, Some(5.0), 40),
+            row("pt", 1, 10.0, Some(6.0), 120),
+            row("radiance", 1, 10.0, Some(7.0), 80),
+            row("product", 1, 10.0, Some(6.0), 50),
+        ];
+        let methods: Vec<String> = ["pt", "radiance", "product"].map(String::from).to_vec();
+        let costs = method_costs(&rows, &methods);
+        let (r, p) = (&costs[1], &costs[2]);
+        assert_eq!(r.mean_spp, 70.0);
+        assert_eq!(p.mean_cpu_seconds, Some(5.5));
+        assert!((p.cores_used().unwrap() - 0.55).abs() < 1e-12);
+        let spp_ratio = p.mean_spp / r.mean_spp;
+        let cpu_ratio = p.mean_cpu_seconds.unwrap() / r.mean_cpu_seconds.unwrap();
+        let per_cpu = p.spp_per_cpu_second().unwrap() / r.spp_per_cpu_second().unwrap();
+        assert!((spp_ratio - cpu_ratio * per_cpu).abs() < 1e-12);
+        let section = cost_section(&rows, &methods);
+        // Ratios are to radiance: 45/70, 5.5/6.5 and (45/5.5)/(70/6.5).
+        let line = section
+            .lines()
+            .find(|l| l.starts_with("| product"))
+            .unwrap();
+        assert_eq!(
+            line,
+            format!(
+                "| product | 10.0 | 5.5 | 0.55 | 8.182 | {:.3} | {:.3} | {:.3} |",
+                45.0 / 70.0,
+                5.5 / 6.5,
+                (45.0 / 5.5) / (70.0 / 6.5)
+            )
+        );
+        assert!(section.contains("spp ratio to `radiance`"));
+        assert!(!section.contains("could not read"));
+    }
+
+    #[test]
+    fn a_run_without_cpu_time_blanks_its_method_and_says_so() {
+        let rows = vec![
+            row("radiance", 0, 10.0, Some(6.0), 60),
+            row("product", 0, 10.0, None, 40),
+            row("product", 1, 10.0, Some(6.0), 50),
+        ];
+        let methods: Vec<String> = ["radiance", "product"].map(String::from).to_vec();
+        let section = cost_section(&rows, &methods);
+        let line = section
+            .lines()
+            .find(|l| l.starts_with("| product"))
+            .unwrap();
+        assert_eq!(line, "| product | 10.0 | — | — | — | 0.750 | — | — |");
+        assert!(section.contains("could not read its CPU clock"));
+        // Without radiance runs the first method is the base.
+        let only_pt = vec![row("pt", 0, 2.0, Some(2.0), 8)];
+        assert!(cost_section(&only_pt, &["pt".into()]).contains("spp ratio to `pt`"));
+        assert_eq!(cost_section(&[], &methods), "");
+    }
+}
