@@ -473,6 +473,8 @@ fn attribution_pairs_differ_only_in_the_method() {
     let diffuse = tiny();
     let out = run_attribution(&diffuse, &options(&diffuse, true)).unwrap();
     assert_eq!(out.factors.len(), 9, "{}", out.markdown);
+    // No glossy first vertex: nothing to split there.
+    assert!(out.at_glossy.is_empty() && !out.markdown.contains("At the glossy first vertices"));
     for f in &out.factors {
         assert_eq!(f.per_seed.len(), 2);
         if f.name.contains("variance") || f.name.starts_with("expected relMSE") {
@@ -550,6 +552,31 @@ fn attribution_pairs_differ_only_in_the_method() {
         out.markdown
             .contains("| glossy GGX lobe (α ≤ 0.5), most of the weight |")
     );
+    // At the glossy first vertices: the learned pair's ratio is the class
+    // split's; the fixed pair's is the learned one's times what fixing α
+    // did to each method, and fixing α does change the product's variance.
+    let names: Vec<&str> = out.at_glossy.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "product / radiance, learned α",
+            "product / radiance, BSDF fraction fixed",
+            "product: fixed / learned α",
+            "radiance: fixed / learned α"
+        ]
+    );
+    let row = |i: usize| &out.at_glossy[i].per_seed;
+    for s in 0..2 {
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+        assert!(close(row(0)[s], floor.per_seed[s]), "{}", out.markdown);
+        assert!(
+            close(row(1)[s], row(0)[s] * row(2)[s] / row(3)[s]),
+            "{}",
+            out.markdown
+        );
+        assert!((row(2)[s] - 1.0).abs() > 1e-3, "{}", out.markdown);
+    }
+    assert!(out.markdown.contains("| product: fixed / learned α |"));
 }
 
 /// Pixels are classed by the floor's material as the product treats it:

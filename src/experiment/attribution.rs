@@ -30,6 +30,7 @@
 //! relMSE) make every variance from a few samples an underestimate of the
 //! tail: read the per-seed columns before the mean.
 
+use super::attribution_report::{class_markdown, glossy_markdown, markdown};
 use super::pixel_classes::{PixelClass, class_counts, class_sums, classify};
 use crate::film::image::Image;
 use crate::film::metrics::RELMSE_EPSILON;
@@ -41,7 +42,6 @@ use crate::render::{
     Budget, Method, RenderOptions, RenderResult, render_side_by_side, side_by_side_share,
 };
 use crate::scene::Scene;
-use std::fmt::Write;
 
 /// `ltcguide attribute`'s arguments.
 #[derive(clap::Args, Clone, Debug)]
@@ -129,7 +129,7 @@ impl Factor {
     }
 }
 
-fn geometric_mean(values: &[f64]) -> f64 {
+pub(super) fn geometric_mean(values: &[f64]) -> f64 {
     let logs = values.iter().map(|x| x.ln()).sum::<f64>();
     (logs / values.len().max(1) as f64).exp()
 }
@@ -156,10 +156,60 @@ pub struct ClassSplit {
 pub struct AttributionOutcome {
     pub factors: Vec<Factor>,
     pub by_class: Vec<ClassSplit>,
+    /// Where the product acts first (glossy first vertices), the relative
+    /// variance per sample of the final iteration under each setting pair:
+    /// see [`GLOSSY_ROWS`]. Empty when no pixel's first vertex is glossy.
+    pub at_glossy: Vec<Factor>,
     /// Mean learned BSDF fraction at the first vertex, (product, radiance),
     /// per seed.
     pub alpha: Vec<(f64, f64)>,
     pub markdown: String,
+}
+
+/// The rows of [`AttributionOutcome::at_glossy`], in order: the learned
+/// pair, the fixed-fraction pair, each method at the fixed fraction over
+/// itself learned, and (with exact integrals) the product exact over the
+/// guider's. Row 2 = row 1 × row 3 / row 4 by construction, so rows 3 and 4
+/// split the change from the learned to the fixed pair between the methods.
+pub const GLOSSY_ROWS: [(&str, &str); 5] = [
+    (
+        "product / radiance, learned α",
+        "the product's gain where it acts",
+    ),
+    (
+        "product / radiance, BSDF fraction fixed",
+        "the same with α the same for both",
+    ),
+    (
+        "product: fixed / learned α",
+        "what learning α does to the product there",
+    ),
+    (
+        "radiance: fixed / learned α",
+        "what learning α does to radiance guiding there",
+    ),
+    (
+        "product: exact f64 integrals / the guider's",
+        "the LTC approximation there (product against product)",
+    ),
+];
+
+/// The name [`GLOSSY_ROWS`]' exact-integrals row starts with.
+const EXACT_ROW: &str = "product: exact";
+
+/// The final iteration's single-sample variance over the pixels whose first
+/// vertex is glossy, each weighed by `norm`, summed.
+fn glossy_relative_variance(glossy: &[bool], norm: &[f64], f: &Figures) -> f64 {
+    if f.final_pixel_variance.len() != glossy.len() {
+        return f64::NAN;
+    }
+    f.final_pixel_variance
+        .iter()
+        .zip(norm)
+        .zip(glossy)
+        .filter(|(_, g)| **g)
+        .map(|((v, w), _)| v * w)
+        .sum()
 }
 
 /// What one render contributes to the factors.
@@ -354,6 +404,20 @@ pub fn run_attribution(
     let classes = classify(scene);
     let counts = class_counts(&classes);
     let mut class_seeds: Vec<([f64; 4], [f64; 4])> = Vec::new();
+    let glossy_pixels: Vec<bool> = classes
+        .iter()
+        .map(|c| matches!(c, PixelClass::Glossy | PixelClass::GlossyCoat))
+        .collect();
+    let any_glossy = glossy_pixels.contains(&true);
+    let mut at_glossy: Vec<Factor> = GLOSSY_ROWS
+        .iter()
+        .filter(|(name, _)| opts.exact_integrals || !name.starts_with(EXACT_ROW))
+        .map(|&(name, isolates)| Factor {
+            name: name.into(),
+            isolates,
+            per_seed: Vec::new(),
+        })
+        .collect();
     let say = |what: &str, seed: u64| {
         if opts.progress {
             eprintln!("attribute: {what}, seed {seed}, {} spp", opts.spp);
@@ -374,6 +438,9 @@ pub fn run_attribution(
             class_sums(&classes, v.map(|(&v, w)| v * w))
         };
         class_seeds.push((by_class(&p), by_class(&r)));
+        // Every render of this seed is weighed by the learned pair's
+        // normaliser, so that ratios across pairs compare variances alone.
+        let at = |f: &Figures| glossy_relative_variance(&glossy_pixels, &norm, f);
         let values = [
             p.final_seconds_per_spp / r.final_seconds_per_spp,
             p.seconds / r.seconds,
@@ -398,6 +465,12 @@ pub fn run_attribution(
             with_fraction(Method::Radiance),
         )?;
         fixed.per_seed.push(pf.final_variance / rf.final_variance);
+        let mut glossy_values = vec![
+            at(&p) / at(&r),
+            at(&pf) / at(&rf),
+            at(&pf) / at(&p),
+            at(&rf) / at(&r),
+        ];
 
         if opts.exact_integrals {
             say("product, exact integrals and the guider's", seed);
@@ -407,6 +480,12 @@ pub fn run_attribution(
             };
             let (pn, ps) = side_by_side(scene, naive, base(Method::Product, seed))?;
             exact.per_seed.push(pn.final_variance / ps.final_variance);
+            glossy_values.push(at(&pn) / at(&ps));
+        }
+        if any_glossy {
+            for (row, v) in at_glossy.iter_mut().zip(glossy_values) {
+                row.per_seed.push(v);
+            }
         }
 
         say("product and radiance, the other roulette", seed);
@@ -426,7 +505,10 @@ pub fn run_attribution(
         rows.push(exact);
     }
     rows.push(roulette);
-    for row in &rows {
+    if !any_glossy {
+        at_glossy.clear();
+    }
+    for row in rows.iter().chain(&at_glossy) {
         if let Some(bad) = row.per_seed.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
             return Err(format!(
                 "'{}' came out {bad}: a render had no usable variance (too few spp?)",
@@ -455,112 +537,14 @@ pub fn run_attribution(
         .collect();
     let mut markdown = markdown(scene, opts, side, &rows, &alpha);
     markdown.push_str(&class_markdown(&by_class));
+    markdown.push_str(&glossy_markdown(&at_glossy, opts.guide_fraction));
     Ok(AttributionOutcome {
         factors: rows,
         by_class,
+        at_glossy,
         alpha,
         markdown,
     })
-}
-
-fn markdown(
-    scene: &Scene,
-    opts: &AttributionOptions,
-    side: usize,
-    rows: &[Factor],
-    alpha: &[(f64, f64)],
-) -> String {
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
-         NEE {}, every part of the method forced on. < 1 favours the product.\n",
-        scene.name,
-        opts.spp,
-        opts.seeds,
-        if opts.path.nee { "on" } else { "off" },
-    );
-    let seeds: String = (1..=opts.seeds).map(|s| format!(" seed {s} |")).collect();
-    let rule: String = (0..opts.seeds).map(|_| "---|").collect();
-    let _ = writeln!(md, "| factor | isolates |{seeds} mean |");
-    let _ = writeln!(md, "|---|---|{rule}---|");
-    for row in rows {
-        let values: String = row.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
-        let _ = writeln!(
-            md,
-            "| {} | {} |{values} {:.3} |",
-            row.name,
-            row.isolates,
-            row.mean()
-        );
-    }
-    let values: String = alpha
-        .iter()
-        .map(|(p, r)| format!(" {p:.2} / {r:.2} |"))
-        .collect();
-    let _ = writeln!(
-        md,
-        "| learned BSDF fraction α at the first vertex, product / radiance (pixel mean) | \
-         how much of the mixture is left to the guide |{values} |"
-    );
-    let _ = writeln!(
-        md,
-        "\nAt zero overhead the product would reach {:.2}× radiance's relMSE in equal time \
-         (its gain at equal spp); with its measured cost it reaches {:.2}×.",
-        rows[EXPECTED_RELMSE].mean(),
-        rows[EQUAL_TIME].mean()
-    );
-    md
-}
-
-/// The split of the final iteration's relative variance by the pixels'
-/// first vertex.
-fn class_markdown(split: &[ClassSplit]) -> String {
-    let mut md = String::from(
-        "\nThe final iteration's relative variance per sample by the first non-delta vertex \
-         seen through each pixel's centre, product / radiance per seed (the product acts \
-         first only at glossy vertices; cosine-only ones take radiance weights):\n\n",
-    );
-    let seeds = split.first().map_or(0, |s| s.per_seed.len());
-    let head: String = (1..=seeds).map(|s| format!(" seed {s} |")).collect();
-    let rule: String = (0..seeds).map(|_| "---|").collect();
-    let _ = writeln!(
-        md,
-        "| first vertex | pixels | radiance's relative variance there |{head} mean |"
-    );
-    let _ = writeln!(md, "|---|---|---|{rule}---|");
-    for c in split {
-        let values: String = c
-            .per_seed
-            .iter()
-            .map(|v| {
-                if v.is_finite() {
-                    format!(" {v:.3} |")
-                } else {
-                    " – |".into()
-                }
-            })
-            .collect();
-        let finite: Vec<f64> = c
-            .per_seed
-            .iter()
-            .copied()
-            .filter(|v| v.is_finite() && *v > 0.0)
-            .collect();
-        let mean = if finite.is_empty() {
-            "–".to_string()
-        } else {
-            format!("{:.3}", geometric_mean(&finite))
-        };
-        let _ = writeln!(
-            md,
-            "| {} | {:.1} % | {:.1} % |{values} {mean} |",
-            c.class.label(),
-            100.0 * c.pixels,
-            100.0 * c.radiance_share
-        );
-    }
-    md
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 
 pub mod ablation;
 pub mod attribution;
+mod attribution_report;
 pub mod colormap;
 pub mod compare;
 pub mod cost;

@@ -1,0 +1,138 @@
+//! The tables `ltcguide attribute` prints: the factors per seed, the split
+//! by the pixels' first vertex, and the ratios at the glossy first vertices.
+
+use super::attribution::{
+    AttributionOptions, ClassSplit, EQUAL_TIME, EXPECTED_RELMSE, Factor, geometric_mean,
+};
+use crate::scene::Scene;
+use std::fmt::Write;
+
+pub(super) fn markdown(
+    scene: &Scene,
+    opts: &AttributionOptions,
+    side: usize,
+    rows: &[Factor],
+    alpha: &[(f64, f64)],
+) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
+         NEE {}, every part of the method forced on. < 1 favours the product.\n",
+        scene.name,
+        opts.spp,
+        opts.seeds,
+        if opts.path.nee { "on" } else { "off" },
+    );
+    let seeds: String = (1..=opts.seeds).map(|s| format!(" seed {s} |")).collect();
+    let rule: String = (0..opts.seeds).map(|_| "---|").collect();
+    let _ = writeln!(md, "| factor | isolates |{seeds} mean |");
+    let _ = writeln!(md, "|---|---|{rule}---|");
+    for row in rows {
+        let values: String = row.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
+        let _ = writeln!(
+            md,
+            "| {} | {} |{values} {:.3} |",
+            row.name,
+            row.isolates,
+            row.mean()
+        );
+    }
+    let values: String = alpha
+        .iter()
+        .map(|(p, r)| format!(" {p:.2} / {r:.2} |"))
+        .collect();
+    let _ = writeln!(
+        md,
+        "| learned BSDF fraction α at the first vertex, product / radiance (pixel mean) | \
+         how much of the mixture is left to the guide |{values} |"
+    );
+    let _ = writeln!(
+        md,
+        "\nAt zero overhead the product would reach {:.2}× radiance's relMSE in equal time \
+         (its gain at equal spp); with its measured cost it reaches {:.2}×.",
+        rows[EXPECTED_RELMSE].mean(),
+        rows[EQUAL_TIME].mean()
+    );
+    md
+}
+
+/// The split of the final iteration's relative variance by the pixels'
+/// first vertex.
+pub(super) fn class_markdown(split: &[ClassSplit]) -> String {
+    let mut md = String::from(
+        "\nThe final iteration's relative variance per sample by the first non-delta vertex \
+         seen through each pixel's centre, product / radiance per seed (the product acts \
+         first only at glossy vertices; cosine-only ones take radiance weights):\n\n",
+    );
+    let seeds = split.first().map_or(0, |s| s.per_seed.len());
+    let head: String = (1..=seeds).map(|s| format!(" seed {s} |")).collect();
+    let rule: String = (0..seeds).map(|_| "---|").collect();
+    let _ = writeln!(
+        md,
+        "| first vertex | pixels | radiance's relative variance there |{head} mean |"
+    );
+    let _ = writeln!(md, "|---|---|---|{rule}---|");
+    for c in split {
+        let values: String = c
+            .per_seed
+            .iter()
+            .map(|v| {
+                if v.is_finite() {
+                    format!(" {v:.3} |")
+                } else {
+                    " – |".into()
+                }
+            })
+            .collect();
+        let finite: Vec<f64> = c
+            .per_seed
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        let mean = if finite.is_empty() {
+            "–".to_string()
+        } else {
+            format!("{:.3}", geometric_mean(&finite))
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {:.1} % | {:.1} % |{values} {mean} |",
+            c.class.label(),
+            100.0 * c.pixels,
+            100.0 * c.radiance_share
+        );
+    }
+    md
+}
+
+/// The table of [`AttributionOutcome::at_glossy`] (nothing without
+/// glossy pixels).
+pub(super) fn glossy_markdown(rows: &[Factor], fraction: f32) -> String {
+    let Some(first) = rows.first() else {
+        return String::new();
+    };
+    let mut md = format!(
+        "\nAt the glossy first vertices (where the product acts first), the final iteration's \
+         relative variance per sample under each pair of settings (the fixed BSDF fraction is \
+         {fraction}; every render of a seed weighed by its learned pair's (R² + 0.01)):\n\n"
+    );
+    let head: String = (1..=first.per_seed.len())
+        .map(|s| format!(" seed {s} |"))
+        .collect();
+    let rule: String = first.per_seed.iter().map(|_| "---|").collect();
+    let _ = writeln!(md, "| ratio | isolates |{head} mean |");
+    let _ = writeln!(md, "|---|---|{rule}---|");
+    for row in rows {
+        let values: String = row.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
+        let _ = writeln!(
+            md,
+            "| {} | {} |{values} {:.3} |",
+            row.name,
+            row.isolates,
+            row.mean()
+        );
+    }
+    md
+}
