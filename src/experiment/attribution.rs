@@ -169,8 +169,9 @@ pub struct AttributionOutcome {
 /// The rows of [`AttributionOutcome::at_glossy`], in order: the learned
 /// pair, the fixed-fraction pair, each method at the fixed fraction over
 /// itself learned, and (with exact integrals) the product exact over the
-/// guider's. Row 2 = row 1 × row 3 / row 4 by construction, so rows 3 and 4
-/// split the change from the learned to the fixed pair between the methods.
+/// guider's. Each ratio weighs its two renders by their mean image, so row
+/// 2 is row 1 × row 3 / row 4 only up to the normalisers: rows 3 and 4 say
+/// which method fixing α moved.
 pub const GLOSSY_ROWS: [(&str, &str); 5] = [
     (
         "product / radiance, learned α",
@@ -438,9 +439,14 @@ pub fn run_attribution(
             class_sums(&classes, v.map(|(&v, w)| v * w))
         };
         class_seeds.push((by_class(&p), by_class(&r)));
-        // Every render of this seed is weighed by the learned pair's
-        // normaliser, so that ratios across pairs compare variances alone.
-        let at = |f: &Figures| glossy_relative_variance(&glossy_pixels, &norm, f);
+        // Each ratio weighs its two renders by their own mean image, as the
+        // pairs do: a firefly then raises its pixel's normaliser too, where a
+        // third render's dark pixel would weigh it by up to 1/0.01.
+        let at = |a: &Figures, b: &Figures| {
+            let norm = pair_normalisers(a, b);
+            glossy_relative_variance(&glossy_pixels, &norm, a)
+                / glossy_relative_variance(&glossy_pixels, &norm, b)
+        };
         let values = [
             p.final_seconds_per_spp / r.final_seconds_per_spp,
             p.seconds / r.seconds,
@@ -465,12 +471,7 @@ pub fn run_attribution(
             with_fraction(Method::Radiance),
         )?;
         fixed.per_seed.push(pf.final_variance / rf.final_variance);
-        let mut glossy_values = vec![
-            at(&p) / at(&r),
-            at(&pf) / at(&rf),
-            at(&pf) / at(&p),
-            at(&rf) / at(&r),
-        ];
+        let mut glossy_values = vec![at(&p, &r), at(&pf, &rf), at(&pf, &p), at(&rf, &r)];
 
         if opts.exact_integrals {
             say("product, exact integrals and the guider's", seed);
@@ -480,7 +481,7 @@ pub fn run_attribution(
             };
             let (pn, ps) = side_by_side(scene, naive, base(Method::Product, seed))?;
             exact.per_seed.push(pn.final_variance / ps.final_variance);
-            glossy_values.push(at(&pn) / at(&ps));
+            glossy_values.push(at(&pn, &ps));
         }
         if any_glossy {
             for (row, v) in at_glossy.iter_mut().zip(glossy_values) {

@@ -116,7 +116,7 @@ pub(super) fn glossy_markdown(rows: &[Factor], fraction: f32) -> String {
     let mut md = format!(
         "\nAt the glossy first vertices (where the product acts first), the final iteration's \
          relative variance per sample under each pair of settings (the fixed BSDF fraction is \
-         {fraction}; every render of a seed weighed by its learned pair's (R² + 0.01)):\n\n"
+         {fraction}; each ratio's two renders weighed by the (R² + 0.01) of their mean image R):\n\n"
     );
     let head: String = (1..=first.per_seed.len())
         .map(|s| format!(" seed {s} |"))

@@ -338,7 +338,7 @@ fn pooled_summary(
     if !costs.is_empty() && !without.is_empty() {
         let _ = writeln!(
             s,
-            "\nThe cost table covers the runs of the comparisons that recorded it; {} predate              `{COST_CSV}` and are not in it.",
+            "\nThe cost table covers the runs of the comparisons that recorded it; {} predate `{COST_CSV}` and are not in it.",
             without.join(", ")
         );
     }
@@ -347,7 +347,12 @@ fn pooled_summary(
             let _ = writeln!(s, "\n{heading}\n");
             for (dir, _, src, _) in parsed {
                 for item in pick(src) {
-                    let _ = writeln!(s, "- `{}`: {item}", dir.display());
+                    // A pooled source's items already name their comparison.
+                    if item.starts_with('`') && item.contains("`: ") {
+                        let _ = writeln!(s, "- {item}");
+                    } else {
+                        let _ = writeln!(s, "- `{}`: {item}", dir.display());
+                    }
                 }
             }
         }
