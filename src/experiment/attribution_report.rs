@@ -24,20 +24,7 @@ pub(super) fn markdown(
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
     );
-    let seeds: String = (1..=opts.seeds).map(|s| format!(" seed {s} |")).collect();
-    let rule: String = (0..opts.seeds).map(|_| "---|").collect();
-    let _ = writeln!(md, "| factor | isolates |{seeds} mean |");
-    let _ = writeln!(md, "|---|---|{rule}---|");
-    for row in rows {
-        let values: String = row.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
-        let _ = writeln!(
-            md,
-            "| {} | {} |{values} {:.3} |",
-            row.name,
-            row.isolates,
-            row.mean()
-        );
-    }
+    factor_table(&mut md, "factor", opts.seeds as usize, rows);
     let values: String = alpha
         .iter()
         .map(|(p, r)| format!(" {p:.2} / {r:.2} |"))
@@ -118,11 +105,16 @@ pub(super) fn glossy_markdown(rows: &[Factor], fraction: f32) -> String {
          relative variance per sample under each pair of settings (the fixed BSDF fraction is \
          {fraction}; each ratio's two renders weighed by the (R² + 0.01) of their mean image R):\n\n"
     );
-    let head: String = (1..=first.per_seed.len())
-        .map(|s| format!(" seed {s} |"))
-        .collect();
-    let rule: String = first.per_seed.iter().map(|_| "---|").collect();
-    let _ = writeln!(md, "| ratio | isolates |{head} mean |");
+    factor_table(&mut md, "ratio", first.per_seed.len(), rows);
+    md
+}
+
+/// A table of factors: name, what it isolates, its value per seed and
+/// their geometric mean.
+fn factor_table(md: &mut String, label: &str, seeds: usize, rows: &[Factor]) {
+    let head: String = (1..=seeds).map(|s| format!(" seed {s} |")).collect();
+    let rule: String = (0..seeds).map(|_| "---|").collect();
+    let _ = writeln!(md, "| {label} | isolates |{head} mean |");
     let _ = writeln!(md, "|---|---|{rule}---|");
     for row in rows {
         let values: String = row.per_seed.iter().map(|v| format!(" {v:.3} |")).collect();
@@ -134,5 +126,4 @@ pub(super) fn glossy_markdown(rows: &[Factor], fraction: f32) -> String {
             row.mean()
         );
     }
-    md
 }
