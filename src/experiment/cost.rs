@@ -8,6 +8,7 @@
 //! CPU second (its own cost per sample). `curves.csv` holds wall-clock time
 //! alone and cannot tell the two apart; this file can.
 
+use super::curves::non_negative_field;
 use std::fmt::Write;
 
 /// One run of one method.
@@ -53,12 +54,7 @@ pub fn parse_cost_csv(text: &str) -> Result<Vec<CostRow>, String> {
             if f.len() != 5 {
                 return Err(format!("bad row '{l}'"));
             }
-            let num = |s: &str| match s.parse::<f64>() {
-                Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
-                _ => Err(format!(
-                    "bad number '{s}' in '{l}' (a finite value ≥ 0 expected)"
-                )),
-            };
+            let num = |s: &str| non_negative_field(s, l);
             Ok(CostRow {
                 method: f[0].to_string(),
                 run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,

@@ -59,14 +59,7 @@ pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
             if f.len() != 6 {
                 return Err(format!("bad row '{l}'"));
             }
-            // Times and errors are finite and non-negative: a NaN or a
-            // negative error would pass silently into every mean and plot.
-            let num = |s: &str| match s.parse::<f64>() {
-                Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
-                _ => Err(format!(
-                    "bad number '{s}' in '{l}' (a finite value ≥ 0 expected)"
-                )),
-            };
+            let num = |s: &str| non_negative_field(s, l);
             Ok(CurveRow {
                 method: f[0].to_string(),
                 run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
@@ -77,6 +70,18 @@ pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
             })
         })
         .collect()
+}
+
+/// A CSV field that must be a finite number ≥ 0 (times, errors, CPU
+/// seconds): a NaN or a negative value would pass silently into every mean
+/// and plot. `line` is the row, for the error.
+pub fn non_negative_field(field: &str, line: &str) -> Result<f64, String> {
+    match field.parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!(
+            "bad number '{field}' in '{line}' (a finite value ≥ 0 expected)"
+        )),
+    }
 }
 
 /// Mean and standard deviation (n − 1) of a sample.
