@@ -245,7 +245,8 @@ pub fn run_compare(
     let summary = summary_markdown(
         scene,
         opts,
-        (&rows, &cost_rows),
+        &rows,
+        &cost_rows,
         &curves,
         &notes,
         &guard_notes,
@@ -345,7 +346,8 @@ pub fn cpu_model() -> String {
 fn summary_markdown(
     scene: &Scene,
     opts: &CompareOptions,
-    (rows, cost_rows): (&[CurveRow], &[CostRow]),
+    rows: &[CurveRow],
+    cost_rows: &[CostRow],
     curves: &[MeanCurve],
     notes: &[String],
     guard_notes: &[String],

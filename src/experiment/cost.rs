@@ -8,7 +8,7 @@
 //! CPU second (its own cost per sample). `curves.csv` holds wall-clock time
 //! alone and cannot tell the two apart; this file can.
 
-use super::curves::non_negative_field;
+use super::curves::{non_negative_field, parse_records};
 use std::fmt::Write;
 
 /// One run of one method.
@@ -41,40 +41,26 @@ pub fn to_cost_csv(rows: &[CostRow]) -> String {
 }
 
 pub fn parse_cost_csv(text: &str) -> Result<Vec<CostRow>, String> {
-    let mut lines = text.lines();
-    if lines.next() != Some(COST_CSV_HEADER) {
-        return Err(format!(
-            "missing or wrong header (expected '{COST_CSV_HEADER}')"
-        ));
-    }
-    lines
-        .filter(|l| !l.is_empty())
-        .map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            if f.len() != 5 {
-                return Err(format!("bad row '{l}'"));
-            }
-            let num = |s: &str| non_negative_field(s, l);
-            Ok(CostRow {
-                method: f[0].to_string(),
-                run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
-                seconds: num(f[2])?,
-                cpu_seconds: if f[3].is_empty() {
-                    None
-                } else {
-                    Some(num(f[3])?)
-                },
-                spp: f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?,
-            })
+    parse_records(text, COST_CSV_HEADER, |l, f| {
+        let num = |s: &str| non_negative_field(s, l);
+        Ok(CostRow {
+            method: f[0].to_string(),
+            run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
+            seconds: num(f[2])?,
+            cpu_seconds: if f[3].is_empty() {
+                None
+            } else {
+                Some(num(f[3])?)
+            },
+            spp: f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?,
         })
-        .collect()
+    })
 }
 
 /// One method's totals over its runs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MethodCost {
     pub method: String,
-    pub runs: usize,
     pub mean_seconds: f64,
     /// `None` when any run lacks its CPU time: a mean over the others would
     /// set different runs against each other.
@@ -111,7 +97,6 @@ pub fn method_costs(rows: &[CostRow], methods: &[String]) -> Vec<MethodCost> {
             let cpu: Option<Vec<f64>> = own.iter().map(|r| r.cpu_seconds).collect();
             Some(MethodCost {
                 method: m.clone(),
-                runs: own.len(),
                 mean_seconds: own.iter().map(|r| r.seconds).sum::<f64>() / n,
                 mean_cpu_seconds: cpu.map(|c| c.iter().sum::<f64>() / n),
                 mean_spp: own.iter().map(|r| r.spp as f64).sum::<f64>() / n,

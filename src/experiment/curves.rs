@@ -48,26 +48,40 @@ pub fn to_csv(rows: &[CurveRow]) -> String {
 }
 
 pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
+    parse_records(text, CSV_HEADER, |l, f| {
+        let num = |s: &str| non_negative_field(s, l);
+        Ok(CurveRow {
+            method: f[0].to_string(),
+            run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
+            seconds: num(f[2])?,
+            spp: f[3].parse().map_err(|_| format!("bad spp in '{l}'"))?,
+            mae: num(f[4])?,
+            relmse: num(f[5])?,
+        })
+    })
+}
+
+/// The rows of a CSV file that must start with `header`, each parsed by
+/// `row` from its line and its fields (as many as the header's; empty
+/// lines are skipped).
+pub fn parse_records<T>(
+    text: &str,
+    header: &str,
+    row: impl Fn(&str, &[&str]) -> Result<T, String>,
+) -> Result<Vec<T>, String> {
     let mut lines = text.lines();
-    if lines.next() != Some(CSV_HEADER) {
-        return Err("missing or wrong CSV header".into());
+    if lines.next() != Some(header) {
+        return Err(format!("missing or wrong CSV header (expected '{header}')"));
     }
+    let fields = header.split(',').count();
     lines
         .filter(|l| !l.is_empty())
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            if f.len() != 6 {
+            if f.len() != fields {
                 return Err(format!("bad row '{l}'"));
             }
-            let num = |s: &str| non_negative_field(s, l);
-            Ok(CurveRow {
-                method: f[0].to_string(),
-                run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
-                seconds: num(f[2])?,
-                spp: f[3].parse().map_err(|_| format!("bad spp in '{l}'"))?,
-                mae: num(f[4])?,
-                relmse: num(f[5])?,
-            })
+            row(l, &f)
         })
         .collect()
 }
