@@ -8,6 +8,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod camera;
+pub mod cpu_clock;
 pub mod directional;
 pub mod emitter;
 pub mod experiment;

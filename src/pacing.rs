@@ -1,35 +1,128 @@
 //! The clock, the snapshots and the size of render calls of one run: what
 //! makes runs of different methods comparable at equal time.
 
+use crate::cpu_clock::PoolCpuClock;
 use crate::film::image::Image;
+use std::cell::Cell;
 use std::time::Instant;
 
-/// A wall clock that can leave out time spent on bookkeeping (snapshots), so
-/// taking snapshots does not change what a run's timings mean.
+/// What a run's budget, snapshot times and training schedule are measured in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TimeBase {
+    /// Wall-clock seconds: what a user waits for.
+    #[default]
+    Wall,
+    /// The render's own CPU seconds per thread of its pool: wall time when
+    /// the render has its cores to itself, and, side by side with other
+    /// renders, independent of how the scheduler shares the cores among
+    /// them (see [`crate::cpu_clock`]).
+    Cpu,
+}
+
+/// The run's clock, in its time base, which can leave out time spent on
+/// bookkeeping (snapshots), so taking snapshots does not change what a
+/// run's timings mean. It also keeps wall time, which every run reports.
 #[derive(Clone, Debug)]
 pub struct RenderClock {
-    start: Instant,
+    wall_start: Instant,
+    wall_excluded: f64,
+    cpu: Option<CpuSeconds>,
     excluded: f64,
 }
 
+/// A pool's CPU time per thread since the run started. A clock that
+/// stops reading (it cannot while the pool lives) advances with wall time
+/// from its last reading instead, so a deadline is still reached, and the
+/// failed reads are counted.
+#[derive(Clone, Debug)]
+struct CpuSeconds {
+    clock: PoolCpuClock,
+    start: f64,
+    last: Cell<(f64, Instant)>,
+    failed_reads: Cell<u64>,
+}
+
+impl CpuSeconds {
+    fn read(&self) -> f64 {
+        let (last, at) = self.last.get();
+        let now = match self.clock.total_seconds() {
+            Some(total) => (total - self.start) / self.clock.threads() as f64,
+            None => {
+                self.failed_reads.set(self.failed_reads.get() + 1);
+                last + at.elapsed().as_secs_f64()
+            }
+        };
+        // Monotone even across a failed read.
+        let now = now.max(last);
+        self.last.set((now, Instant::now()));
+        now
+    }
+}
+
 impl RenderClock {
+    /// A wall clock, started now.
     pub fn start() -> Self {
         RenderClock {
-            start: Instant::now(),
+            wall_start: Instant::now(),
+            wall_excluded: 0.0,
+            cpu: None,
             excluded: 0.0,
         }
     }
 
-    /// Seconds of rendering so far.
+    /// A clock in `base`, started now; a CPU clock reads the threads of
+    /// `pool`, which must run the whole render.
+    pub fn start_in(base: TimeBase, pool: &rayon::ThreadPool) -> Result<Self, String> {
+        let mut clock = RenderClock::start();
+        if base == TimeBase::Cpu {
+            let cpu = PoolCpuClock::of(pool)?;
+            let start = cpu
+                .total_seconds()
+                .ok_or("cannot read a render thread's CPU clock")?;
+            clock.cpu = Some(CpuSeconds {
+                clock: cpu,
+                start,
+                last: Cell::new((0.0, Instant::now())),
+                failed_reads: Cell::new(0),
+            });
+        }
+        Ok(clock)
+    }
+
+    pub fn base(&self) -> TimeBase {
+        match self.cpu {
+            Some(_) => TimeBase::Cpu,
+            None => TimeBase::Wall,
+        }
+    }
+
+    /// Seconds of rendering so far, in the clock's time base.
     pub fn seconds(&self) -> f64 {
-        self.start.elapsed().as_secs_f64() - self.excluded
+        match &self.cpu {
+            Some(cpu) => cpu.read() - self.excluded,
+            None => self.wall_seconds(),
+        }
+    }
+
+    /// Wall-clock seconds of rendering so far, whatever the time base.
+    pub fn wall_seconds(&self) -> f64 {
+        self.wall_start.elapsed().as_secs_f64() - self.wall_excluded
+    }
+
+    /// Reads of a CPU clock that failed (each advanced it by wall time).
+    pub fn failed_reads(&self) -> u64 {
+        self.cpu.as_ref().map_or(0, |c| c.failed_reads.get())
     }
 
     /// Runs `f` without charging its time to the render.
     pub fn excluding<T>(&mut self, f: impl FnOnce() -> T) -> T {
-        let t0 = Instant::now();
+        let (t0, wall0) = (self.seconds(), Instant::now());
         let out = f();
-        self.excluded += t0.elapsed().as_secs_f64();
+        self.wall_excluded += wall0.elapsed().as_secs_f64();
+        if self.cpu.is_some() {
+            self.excluded += self.seconds() - t0;
+        }
         out
     }
 }
@@ -179,6 +272,42 @@ fn half_of(n: u64, seconds_left: f64, seconds_per_pass: f64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu_clock::spin_cpu;
+
+    /// The CPU clock advances with its pool's work alone, per thread, and
+    /// leaves out what runs inside `excluding`; the wall clock it keeps
+    /// advances regardless.
+    #[test]
+    fn the_cpu_clock_counts_its_pools_work_per_thread() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let mut clock = RenderClock::start_in(TimeBase::Cpu, &pool).unwrap();
+        assert_eq!(clock.base(), TimeBase::Cpu);
+        std::thread::sleep(std::time::Duration::from_millis(150));
+        let idle = clock.seconds();
+        assert!(idle < 0.05, "the pool idled, its clock read {idle} s");
+        assert!(clock.wall_seconds() >= 0.15);
+        // 0.2 s of CPU on each of 2 threads: 0.2 s per thread.
+        pool.broadcast(|_| spin_cpu(0.2));
+        let busy = clock.seconds();
+        assert!(
+            (0.2..0.27).contains(&busy),
+            "{busy} s after 0.2 s per thread"
+        );
+        clock.excluding(|| pool.broadcast(|_| spin_cpu(0.1)));
+        let after = clock.seconds();
+        assert!(
+            (after - busy).abs() < 0.03,
+            "excluded work moved the clock from {busy} to {after} s"
+        );
+        assert_eq!(clock.failed_reads(), 0);
+        let wall = RenderClock::start_in(TimeBase::Wall, &pool).unwrap();
+        assert_eq!(wall.base(), TimeBase::Wall);
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        assert!(wall.seconds() >= 0.02);
+    }
 
     /// Calls take what is left of a sample budget (at most 16 passes), one
     /// pass until a timed budget has a pace, then about half the time left

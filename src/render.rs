@@ -1,6 +1,7 @@
 //! Whole renders: a budget in samples per pixel or seconds, a method, and
 //! the statistics every run reports.
 
+use crate::cpu_clock::PoolCpuClock;
 use crate::film::image::{Film, Image};
 use crate::guards::drain_pool;
 use crate::guiding::guide::RadianceModel;
@@ -20,7 +21,7 @@ use std::sync::OnceLock;
 /// The guard counters every run reports live in [`crate::guards`].
 pub use crate::guards::Guards;
 /// The run's clock, snapshots and call sizes live in [`crate::pacing`].
-pub use crate::pacing::{PassPacer, RenderClock, Snapshot, SnapshotPlan};
+pub use crate::pacing::{PassPacer, RenderClock, Snapshot, SnapshotPlan, TimeBase};
 
 /// The committed LTC table, decoded once.
 pub fn default_ltc_table() -> Result<&'static LtcTable, String> {
@@ -82,6 +83,9 @@ pub struct RenderOptions {
     /// `None`: scaled to the image size, see
     /// [`crate::guiding::sdtree::default_split_threshold`].
     pub spatial_threshold: Option<f64>,
+    /// What the budget, the snapshot times and the training schedule are
+    /// measured in.
+    pub time_base: TimeBase,
 }
 
 impl Default for RenderOptions {
@@ -107,6 +111,7 @@ impl Default for RenderOptions {
             pixel_reuse: true,
             use_plan: true,
             spatial_threshold: None,
+            time_base: TimeBase::Wall,
         }
     }
 }
@@ -116,7 +121,16 @@ pub struct RenderStats {
     pub scene: String,
     pub method: Method,
     pub spp: u32,
+    /// Wall-clock seconds of rendering (snapshots left out), whatever the
+    /// time base.
     pub seconds: f64,
+    /// The time base of the budget and the snapshots, and the run's clock
+    /// at its end in it (`seconds` under the wall clock).
+    pub time_base: TimeBase,
+    pub clock_seconds: f64,
+    /// Reads of a CPU clock that failed, each advancing the clock by wall
+    /// time instead (0 on any normal system).
+    pub clock_read_failures: u64,
     pub paths_per_second: f64,
     /// CPU time of the render's own threads (snapshots included; NaN if
     /// the clock cannot be read). On a shared machine it compares builds
@@ -173,28 +187,6 @@ pub fn progress_bar(enabled: bool, len: u64, what: &str) -> Option<indicatif::Pr
     Some(bar)
 }
 
-/// CPU time the calling thread has consumed so far (NaN where the clock
-/// cannot be read).
-fn thread_cpu_seconds() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid timespec for the call to fill in.
-    if unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } != 0 {
-        return f64::NAN;
-    }
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-}
-
-/// CPU time consumed so far by the threads of `pool`. A render's work runs
-/// on its own pool alone, so this is its CPU time even while other renders
-/// share the process (side by side), where the process's clock would count
-/// theirs too.
-fn pool_cpu_seconds(pool: &rayon::ThreadPool) -> f64 {
-    pool.broadcast(|_| thread_cpu_seconds()).into_iter().sum()
-}
-
 /// The plan a run with `opts` follows: the per-scene plan, or with
 /// `use_plan` off every part of the requested method.
 pub fn run_plan(scene: &Scene, opts: &RenderOptions) -> crate::plan::ScenePlan {
@@ -218,8 +210,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);
-    let cpu_before = pool_cpu_seconds(&pool);
-    let mut clock = RenderClock::start();
+    let cpu = PoolCpuClock::of(&pool).ok();
+    let cpu_before = cpu.as_ref().and_then(PoolCpuClock::total_seconds);
+    let mut clock = RenderClock::start_in(opts.time_base, &pool)?;
     let mut snapshots = SnapshotPlan::at(opts.snapshot_times.clone());
     let (len, what) = match opts.budget {
         Budget::Spp(n) => (n as u64, format!("{:?} spp", opts.method)),
@@ -292,8 +285,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let seconds = clock.seconds();
-    let cpu_seconds = pool_cpu_seconds(&pool) - cpu_before;
+    let seconds = clock.wall_seconds();
+    let clock_seconds = clock.seconds();
+    let cpu_seconds = match (&cpu, cpu_before) {
+        (Some(c), Some(before)) => c.total_seconds().map_or(f64::NAN, |t| t - before),
+        _ => f64::NAN,
+    };
     let mean = image.mean_rgb();
     // The pool's threads were started for this render, so every event
     // their counts hold is this render's (see crate::guards).
@@ -321,6 +318,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         method: plan.method,
         spp,
         seconds,
+        time_base: clock.base(),
+        clock_seconds,
+        clock_read_failures: clock.failed_reads(),
         paths_per_second: counters.paths as f64 / seconds.max(1e-9),
         cpu_seconds,
         rays_per_second: (counters.rays + counters.shadow_rays) as f64 / seconds.max(1e-9),

@@ -10,7 +10,7 @@ use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
 use ltcguide::film::exr_io::write_rgb;
 use ltcguide::film::image::Image;
 use ltcguide::integrator::path::RouletteMode;
-use ltcguide::render::{Budget, Method, RenderOptions, render};
+use ltcguide::render::{Budget, Method, RenderOptions, TimeBase, render};
 use ltcguide::scene::Scene;
 use std::path::Path;
 
@@ -33,6 +33,7 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     let methods = vec![Method::Pt, Method::Radiance, Method::Product];
     let opts = CompareOptions {
         seconds: 0.6,
+        time_base: TimeBase::Wall,
         runs: 2,
         first_run: 0,
         guided_roulette: Some((RouletteMode::Off, 5.0)),
@@ -195,6 +196,7 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
     let dir = std::env::temp_dir().join(format!("ltcguide-compare-bad-{}", std::process::id()));
     let opts = CompareOptions {
         seconds: 0.1,
+        time_base: TimeBase::Wall,
         ..compare_options(vec![Method::Pt], &dir)
     };
     let wrong = Image {
@@ -269,6 +271,7 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
     let methods = vec![Method::Pt, Method::Radiance, Method::Product];
     let opts = CompareOptions {
         seconds: 0.3,
+        time_base: TimeBase::Wall,
         runs: 2,
         first_run: 0,
         threads: 2,
@@ -370,6 +373,62 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
         "{}",
         cost_lines[1]
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// On the CPU clock, each run's budget is its own CPU time: its final curve
+/// row is at the budget, within a pass, and at most the CPU time its pool
+/// measured (which also holds the snapshots), however the three runs
+/// share the cores; the summary and the plot say which clock it was, and
+/// `merge` will not pool it with a wall-clock comparison.
+#[test]
+fn compare_on_the_cpu_clock_gives_each_run_its_cpu_budget() {
+    let scene = tiny();
+    let reference = flat_reference();
+    let dir = std::env::temp_dir().join(format!("ltcguide-compare-cpu-{}", std::process::id()));
+    let budget = 0.4;
+    let opts = CompareOptions {
+        seconds: budget,
+        time_base: TimeBase::Cpu,
+        runs: 1,
+        threads: 2,
+        side_by_side: true,
+        ..compare_options(vec![Method::Pt, Method::Radiance, Method::Product], &dir)
+    };
+    let outcome = run_compare(&scene, &reference, &opts).unwrap();
+    let costs = parse_cost_csv(&std::fs::read_to_string(dir.join(COST_CSV)).unwrap()).unwrap();
+    assert_eq!(costs.len(), 3);
+    for c in &costs {
+        let last = outcome.rows.iter().rfind(|r| r.method == c.method).unwrap();
+        let cpu = c.cpu_seconds.expect("Linux has a per-thread CPU clock");
+        assert!(
+            last.seconds <= cpu + 1e-3 && (budget * 0.5..budget * 1.5).contains(&last.seconds),
+            "{}: clock {} s, CPU {cpu} s, budget {budget} s",
+            c.method,
+            last.seconds
+        );
+    }
+    assert!(
+        outcome
+            .summary
+            .contains("Budget 0.4 CPU s per thread per run (training included)"),
+        "{}",
+        outcome.summary
+    );
+    let svg = std::fs::read_to_string(dir.join("curves.svg")).unwrap();
+    assert!(svg.contains("CPU seconds per thread"));
+    let wall_dir = dir.join("wall");
+    let wall = CompareOptions {
+        time_base: TimeBase::Wall,
+        methods: vec![Method::Pt],
+        first_run: 1,
+        out_dir: wall_dir.clone(),
+        ..opts.clone()
+    };
+    run_compare(&scene, &reference, &wall).unwrap();
+    let err = ltcguide::experiment::merge::merge(&dir.join("pooled"), &[dir.clone(), wall_dir])
+        .unwrap_err();
+    assert!(err.contains("budget"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -10,7 +10,7 @@ use ltcguide::experiment::compare::{CompareOptions, run_compare};
 use ltcguide::experiment::cost::{COST_CSV, COST_HEADING, CostRow, parse_cost_csv};
 use ltcguide::experiment::curves::{CurveRow, parse_csv};
 use ltcguide::experiment::merge::merge;
-use ltcguide::render::Method;
+use ltcguide::render::{Method, TimeBase};
 use std::path::{Path, PathBuf};
 
 fn temp(name: &str) -> PathBuf {
@@ -23,6 +23,7 @@ fn study(dir: &Path, first_run: u32, runs: u32, seconds: f64) -> Vec<CurveRow> {
         runs,
         first_run,
         seconds,
+        time_base: TimeBase::Wall,
         use_plan: false,
         ..compare_options(vec![Method::Pt, Method::Radiance], dir)
     };

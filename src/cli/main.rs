@@ -13,7 +13,7 @@ use ltcguide::guiding::product::CosineLobes;
 use ltcguide::guiding::schedule::TrainingStop;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::ltc::ProductKernel;
-use ltcguide::render::{Budget, Method, RenderOptions, render};
+use ltcguide::render::{Budget, Method, RenderOptions, TimeBase, render};
 use ltcguide::scene::{Scene, load_scene};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -132,9 +132,14 @@ struct RenderArgs {
     /// Samples per pixel.
     #[arg(long, conflicts_with = "time")]
     spp: Option<u32>,
-    /// Wall-clock budget in seconds instead of a sample count.
+    /// A budget in seconds (of --clock) instead of a sample count.
     #[arg(long)]
     time: Option<f64>,
+    /// What --time and training measure: wall-clock seconds, or the
+    /// render's own CPU seconds per thread (a budget other processes'
+    /// load does not eat into).
+    #[arg(long, value_enum, default_value_t = TimeBase::Wall)]
+    clock: TimeBase,
     /// Output EXR; a PNG preview is written next to it.
     #[arg(long, default_value = "out/render.exr")]
     out: PathBuf,
@@ -385,6 +390,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         pixel_reuse: !args.product.no_pixel_reuse,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
+        time_base: args.clock,
     };
     let plan = ltcguide::render::run_plan(&scene, &opts);
     if alpha_aov && !plan.guiding {
@@ -424,8 +430,18 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     } else {
         format!("{} spp", s.spp)
     };
+    if s.clock_read_failures > 0 {
+        eprintln!(
+            "warning: {} reads of the CPU clock failed; the clock advanced by wall time there",
+            s.clock_read_failures
+        );
+    }
+    let cpu_time = match s.time_base {
+        TimeBase::Cpu => format!(", {:.2} CPU s per thread", s.clock_seconds),
+        TimeBase::Wall => String::new(),
+    };
     eprintln!(
-        "{}: {spp} in {:.2} s ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",
+        "{}: {spp} in {:.2} s{cpu_time} ({:.3} Mpaths/s, {:.2} Mrays/s, {} threads) -> {} and {}",
         s.scene,
         s.seconds,
         s.paths_per_second / 1e6,

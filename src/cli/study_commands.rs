@@ -7,7 +7,7 @@ use clap::Args;
 use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::read_valid_image;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
-use ltcguide::render::Method;
+use ltcguide::render::{Method, TimeBase};
 use ltcguide::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -18,9 +18,15 @@ pub struct CompareArgs {
     /// Reference image (e.g. the pack's reference.exr, or a long ltcguide render).
     #[arg(long)]
     reference: PathBuf,
-    /// Wall-clock budget per run in seconds, training included.
+    /// Budget per run in seconds (of --clock), training included.
     #[arg(long)]
     time: f64,
+    /// What --time, the snapshots and training measure: wall-clock seconds,
+    /// or each run's own CPU seconds per thread. Side by side, cpu compares
+    /// the methods at equal CPU time however the scheduler shares the cores
+    /// among the runs (it does not share them evenly: `src/cpu_clock.rs`).
+    #[arg(long, value_enum, default_value_t = TimeBase::Wall)]
+    clock: TimeBase,
     /// Methods to compare, comma separated.
     #[arg(long, value_delimiter = ',', default_value = "pt,radiance")]
     methods: Vec<Method>,
@@ -92,6 +98,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     let opts = ltcguide::experiment::compare::CompareOptions {
         methods: args.methods.clone(),
         seconds: args.time,
+        time_base: args.clock,
         runs: args.runs,
         first_run: args.first_run,
         threads: args.threads,

@@ -18,8 +18,8 @@ use crate::guiding::product::CosineLobes;
 use crate::guiding::schedule::TrainingStop;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::render::{
-    Budget, Method, RenderOptions, SnapshotPlan, render, render_side_by_side, resolve_threads,
-    side_by_side_share,
+    Budget, Method, RenderOptions, SnapshotPlan, TimeBase, render, render_side_by_side,
+    resolve_threads, side_by_side_share,
 };
 use crate::scene::Scene;
 use std::fmt::Write;
@@ -29,6 +29,8 @@ use std::path::{Path, PathBuf};
 pub struct CompareOptions {
     pub methods: Vec<Method>,
     pub seconds: f64,
+    /// What `seconds`, the snapshots and training measure.
+    pub time_base: TimeBase,
     pub runs: u32,
     /// The first run's number: runs first_run.. take seeds 1000 + run, so a
     /// later study can add runs with new seeds to an earlier one (`merge`).
@@ -199,7 +201,7 @@ pub fn run_compare(
             rows.push(CurveRow {
                 method: name.clone(),
                 run,
-                seconds: result.stats.seconds,
+                seconds: result.stats.clock_seconds,
                 spp: result.stats.spp,
                 mae: mae(&result.image, reference)?,
                 relmse: relmse(&result.image, reference)?,
@@ -215,6 +217,13 @@ pub fn run_compare(
             let guards = &result.stats.guards;
             if guards.total() > 0 {
                 guard_notes.push(format!("{name}, seed {seed}: {}", guards.describe()));
+            }
+            if result.stats.clock_read_failures > 0 {
+                guard_notes.push(format!(
+                    "{name}, seed {seed}: {} reads of the CPU clock failed (the clock advanced by \
+                     wall time there)",
+                    result.stats.clock_read_failures
+                ));
             }
             // Every run's plan, not the first's alone: a trial decides per run whether a guided
             // method keeps guiding, and a ratio of runs that decided differently means something else.
@@ -239,7 +248,11 @@ pub fn run_compare(
         .iter()
         .map(|&m| mean_curve(&rows, &method_name(m)))
         .collect();
-    let svg = curves_svg(&curves_title(&scene.name, opts.runs as usize), &curves)?;
+    let svg = curves_svg(
+        &curves_title(&scene.name, opts.runs as usize),
+        time_axis_label(opts.time_base),
+        &curves,
+    )?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
     let notes = plan_notes.concat();
     let summary = summary_markdown(
@@ -284,6 +297,7 @@ fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
         use_plan: opts.use_plan,
+        time_base: opts.time_base,
         ..Default::default()
     }
 }
@@ -368,8 +382,8 @@ fn summary_markdown(
     let _ = writeln!(s, "# {}{SUMMARY_TITLE_SUFFIX}\n", scene.name);
     let _ = writeln!(
         s,
-        "Budget {:.1} s per run (training included), {}, {}, {}.\n",
-        opts.seconds,
+        "{} (training included), {}, {}, {}.\n",
+        budget_phrase(opts.seconds, opts.time_base),
         runs_phrase(rows),
         threads,
         cpu_model()
@@ -441,6 +455,34 @@ fn summary_markdown(
          `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
     );
     s
+}
+
+/// The opening of a summary's budget line, which names the time base:
+/// `merge` pools only sources whose budget lines agree.
+pub fn budget_phrase(seconds: f64, base: TimeBase) -> String {
+    match base {
+        TimeBase::Wall => format!("Budget {seconds:.1} s per run"),
+        TimeBase::Cpu => format!("Budget {seconds:.1} {CPU_BUDGET_UNIT} per run"),
+    }
+}
+
+const CPU_BUDGET_UNIT: &str = "CPU s per thread";
+
+/// The time base a summary's budget line names (wall unless it says CPU).
+pub fn summary_time_base(summary: &str) -> TimeBase {
+    let budget = summary.lines().find(|l| l.starts_with("Budget "));
+    match budget {
+        Some(l) if l.contains(CPU_BUDGET_UNIT) => TimeBase::Cpu,
+        _ => TimeBase::Wall,
+    }
+}
+
+/// The curves' time axis.
+pub fn time_axis_label(base: TimeBase) -> &'static str {
+    match base {
+        TimeBase::Wall => "seconds (training included)",
+        TimeBase::Cpu => "CPU seconds per thread (training included)",
+    }
 }
 
 /// The seeds of runs `runs` (increasing): a range where they are

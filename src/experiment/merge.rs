@@ -11,7 +11,7 @@
 
 use super::compare::{
     SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase, seeds_phrase,
-    speedup_section,
+    speedup_section, summary_time_base, time_axis_label,
 };
 use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
 use super::curves::{
@@ -223,7 +223,11 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     let rows = parse_csv(&csv)?;
     let curves: Vec<MeanCurve> = methods.iter().map(|m| mean_curve(&rows, m)).collect();
     let runs = run_numbers(&rows);
-    let svg = curves_svg(&curves_title(&first.scene, runs.len()), &curves)?;
+    let svg = curves_svg(
+        &curves_title(&first.scene, runs.len()),
+        time_axis_label(summary_time_base(&first.budget)),
+        &curves,
+    )?;
     let pooled_costs = parse_cost_csv(&cost_csv)?;
     let summary = pooled_summary(&parsed, &rows, &curves, &pooled_costs);
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create '{}': {e}", out.display()))?;

@@ -13,7 +13,7 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
-pub fn curves_svg(title: &str, curves: &[MeanCurve]) -> Result<String, String> {
+pub fn curves_svg(title: &str, time_label: &str, curves: &[MeanCurve]) -> Result<String, String> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (1200, 480)).into_drawing_area();
@@ -22,8 +22,8 @@ pub fn curves_svg(title: &str, curves: &[MeanCurve]) -> Result<String, String> {
             .titled(title, ("sans-serif", 20))
             .map_err(|e| e.to_string())?;
         let (left, right) = root.split_horizontally(600);
-        panel(&left, "relMSE", curves, |c| &c.relmse)?;
-        panel(&right, "MAE", curves, |c| &c.mae)?;
+        panel(&left, "relMSE", time_label, curves, |c| &c.relmse)?;
+        panel(&right, "MAE", time_label, curves, |c| &c.mae)?;
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(svg)
@@ -32,6 +32,7 @@ pub fn curves_svg(title: &str, curves: &[MeanCurve]) -> Result<String, String> {
 fn panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     metric: &str,
+    time_label: &str,
     curves: &[MeanCurve],
     pick: impl Fn(&MeanCurve) -> &Vec<(f64, f64)>,
 ) -> Result<(), String> {
@@ -69,7 +70,7 @@ fn panel(
         .map_err(err)?;
     chart
         .configure_mesh()
-        .x_desc("seconds (training included)")
+        .x_desc(time_label)
         .y_desc(metric)
         .x_label_formatter(&|v| nice_label(*v).map_or(String::new(), |(m, e)| plain(m, e)))
         .y_label_formatter(&|v| nice_label(*v).map_or(String::new(), |(m, e)| format!("{m}e{e}")))
@@ -181,7 +182,7 @@ mod tests {
             mae: vec![(0.3, 0.0), (0.1, 0.0), (0.02, 0.0)],
             relmse: vec![(0.3, 0.0), (0.1, 0.0), (0.02, 0.0)],
         };
-        let svg = curves_svg("t", &[c]).unwrap();
+        let svg = curves_svg("t", "seconds", &[c]).unwrap();
         let labels: Vec<&str> = svg
             .split("<text")
             .skip(1)
@@ -205,7 +206,7 @@ mod tests {
             mae: vec![(k, k * 0.1), (k / 2.0, 0.0), (k / 4.0, 0.01)],
             relmse: vec![(k, 0.0), (k / 2.0, 0.0), (k / 4.0, 0.0)],
         };
-        let svg = curves_svg("test", &[c("pt", 1.0), c("radiance", 0.5)]).unwrap();
+        let svg = curves_svg("test", "seconds", &[c("pt", 1.0), c("radiance", 0.5)]).unwrap();
         assert!(svg.starts_with("<svg"));
         assert!(svg.contains("relMSE") && svg.contains("MAE"));
         // plotters writes each label on its own line inside <text>.

@@ -4,7 +4,10 @@
 //! recomputed from it: pages made before the aggregation was fixed are
 //! corrected this way rather than by hours of new renders.
 
-use super::compare::{SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section};
+use super::compare::{
+    SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section, summary_time_base,
+    time_axis_label,
+};
 use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
 use super::plot::curves_svg;
 use crate::film::write_atomic;
@@ -49,7 +52,11 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
                 dir.join("summary.md").display()
             )
         })?;
-    let svg = curves_svg(&curves_title(name, run_numbers(&rows).len()), &curves)?;
+    let svg = curves_svg(
+        &curves_title(name, run_numbers(&rows).len()),
+        time_axis_label(summary_time_base(&summary)),
+        &curves,
+    )?;
     let new_section = speedup_section(&curves);
     let (old_section, new_summary) = replace_speedup_section(&summary, &new_section)
         .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;

@@ -4,7 +4,7 @@ use ltcguide::experiment::compare::CompareOptions;
 use ltcguide::film::image::Image;
 use ltcguide::guiding::product::CosineLobes;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
-use ltcguide::render::Method;
+use ltcguide::render::{Method, TimeBase};
 use ltcguide::scene::{Scene, load_scene};
 use std::path::Path;
 
@@ -35,6 +35,7 @@ pub fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
     CompareOptions {
         methods,
         seconds: 0.2,
+        time_base: TimeBase::Wall,
         runs: 1,
         first_run: 0,
         threads: 0,
