@@ -126,13 +126,24 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
         }
         let summary = parse_summary(&read("summary.md")?)
             .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;
-        let cost = read_costs(dir, &rows)?;
-        parsed.push((dir, rows, summary, cost));
+        let costs = read_costs(dir, &rows)?;
+        parsed.push(Source {
+            dir,
+            rows,
+            summary,
+            costs,
+        });
     }
-    let (first_dir, first_rows, first, _) = &parsed[0];
-    let methods = methods_in_order(first_rows);
+    let (first_dir, first) = (parsed[0].dir, &parsed[0].summary);
+    let methods = methods_in_order(&parsed[0].rows);
     let mut seen: Vec<(u32, &PathBuf)> = Vec::new();
-    for (dir, rows, s, _) in &parsed {
+    for Source {
+        dir,
+        rows,
+        summary: s,
+        ..
+    } in &parsed
+    {
         let differs = |what: &str, a: &str, b: &str| {
             format!(
                 "{} and {} differ in {what} ('{a}' against '{b}'): only comparisons of the same \
@@ -189,7 +200,7 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     let mut pooled: Vec<CurveRow> = Vec::new();
     for method in &methods {
         let mut runs: Vec<(u32, Vec<CurveRow>)> = Vec::new();
-        for (_, rows, _, _) in &parsed {
+        for Source { rows, .. } in &parsed {
             for run in run_numbers(rows) {
                 let own = rows
                     .iter()
@@ -205,7 +216,7 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     let csv = to_csv(&pooled);
     let mut pooled_costs: Vec<CostRow> = parsed
         .iter()
-        .filter_map(|(_, _, _, cost)| cost.as_ref())
+        .filter_map(|source| source.costs.as_ref())
         .flatten()
         .cloned()
         .collect();
@@ -281,12 +292,14 @@ fn read_costs(dir: &Path, rows: &[CurveRow]) -> Result<Option<Vec<CostRow>>, Str
     Ok(Some(costs))
 }
 
-type Source<'a> = (
-    &'a PathBuf,
-    Vec<CurveRow>,
-    SourceSummary,
-    Option<Vec<CostRow>>,
-);
+/// One comparison folder as `merge` read it.
+struct Source<'a> {
+    dir: &'a PathBuf,
+    rows: Vec<CurveRow>,
+    summary: SourceSummary,
+    /// Its `runs.csv`, if it has one.
+    costs: Option<Vec<CostRow>>,
+}
 
 fn pooled_summary(
     parsed: &[Source],
@@ -294,9 +307,9 @@ fn pooled_summary(
     curves: &[MeanCurve],
     costs: &[CostRow],
 ) -> String {
-    let first = &parsed[0].2;
+    let first = &parsed[0].summary;
     let mut machines: Vec<&str> = Vec::new();
-    for (_, _, s, _) in parsed {
+    for Source { summary: s, .. } in parsed {
         if !machines.contains(&s.machine.as_str()) {
             machines.push(&s.machine);
         }
@@ -312,7 +325,7 @@ fn pooled_summary(
     );
     let sources: Vec<String> = parsed
         .iter()
-        .map(|(dir, rows, _, _)| {
+        .map(|Source { dir, rows, .. }| {
             let runs = run_numbers(rows);
             format!("`{}` (seeds {})", dir.display(), seeds_phrase(&runs))
         })
@@ -330,8 +343,8 @@ fn pooled_summary(
     s.push_str(&cost_section(costs, &methods));
     let without: Vec<String> = parsed
         .iter()
-        .filter(|(_, _, _, cost)| cost.is_none())
-        .map(|(dir, rows, _, _)| {
+        .filter(|source| source.costs.is_none())
+        .map(|Source { dir, rows, .. }| {
             format!(
                 "`{}` (seeds {})",
                 dir.display(),
@@ -347,9 +360,15 @@ fn pooled_summary(
         );
     }
     let section = |s: &mut String, heading: &str, pick: fn(&SourceSummary) -> &Vec<String>| {
-        if parsed.iter().any(|(_, _, src, _)| !pick(src).is_empty()) {
+        if parsed
+            .iter()
+            .any(|source| !pick(&source.summary).is_empty())
+        {
             let _ = writeln!(s, "\n{heading}\n");
-            for (dir, _, src, _) in parsed {
+            for Source {
+                dir, summary: src, ..
+            } in parsed
+            {
                 for item in pick(src) {
                     // A pooled source's items already name their comparison.
                     if item.starts_with('`') && item.contains("`: ") {
