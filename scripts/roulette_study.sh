@@ -8,11 +8,14 @@
 # per-scene summaries and the product/radiance ratios of each roulette.
 # Every number in the page is what the commands below print.
 #
-# Usage: scripts/roulette_study.sh [SECONDS_PER_RUN] [RUNS] [SCENES] [ROULETTES]
+# Usage: scripts/roulette_study.sh [SECONDS_PER_RUN] [RUNS] [SCENES] [ROULETTES] [CLOCK]
 #   ROULETTES: the parts to (re)run, default "classic adrrs". The page is
 #   rebuilt from every scene under docs/study, each stamped with when and
 #   by which commit it ran (docs/study/<rr>/<scene>/RUN), so a subset can be
-#   rerun without losing the others.
+#   rerun without losing the others; it is refused when their budgets
+#   (seconds and clock) differ.
+#   CLOCK: wall or cpu (`compare --clock`: every run gets SECONDS_PER_RUN of
+#   its own CPU time, however the scheduler shares the cores); default wall.
 # Needs ../shared/scenes. Takes about SCENES × 2 × RUNS × SECONDS
 # (pt, radiance and product side by side in each part).
 set -euo pipefail
@@ -21,6 +24,11 @@ SECONDS_PER_RUN=${1:-30}
 RUNS=${2:-3}
 SCENES=${3:-"cornell-box veach-mis veach-ajar staircase living-room"}
 ROULETTES=${4:-"classic adrrs"}
+CLOCK=${5:-wall}
+case "$CLOCK" in
+  wall|cpu) ;;
+  *) echo "roulette_study.sh: CLOCK must be wall or cpu, not '$CLOCK'" >&2; exit 2 ;;
+esac
 PACK=../shared/scenes
 [ -d "$PACK" ] || { echo "roulette_study.sh: the scene pack $PACK is absent" >&2; exit 2; }
 cargo build --release --quiet
@@ -47,8 +55,8 @@ for rr in $ROULETTES; do
     echo "study: $rr $scene" >&2
     "$BIN" compare "$PACK/$scene/scene.xml" --reference "$PACK/$scene/reference.exr" \
       --time "$SECONDS_PER_RUN" --runs "$RUNS" --methods "$methods" --nee all \
-      --guided-rr "$rr" --side-by-side --out "$OUT/$rr/$scene" > /dev/null
-    echo "\`roulette_study.sh $SECONDS_PER_RUN $RUNS '$scene' $rr\` finished $(date -u '+%Y-%m-%d %H:%M UTC'), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) threads, ltcguide $(git rev-parse --short HEAD 2>/dev/null || echo unknown)" > "$OUT/$rr/$scene/RUN"
+      --guided-rr "$rr" --side-by-side --clock "$CLOCK" --out "$OUT/$rr/$scene" > /dev/null
+    echo "\`roulette_study.sh $SECONDS_PER_RUN $RUNS '$scene' $rr $CLOCK\` finished $(date -u '+%Y-%m-%d %H:%M UTC'), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) threads, ltcguide $(git rev-parse --short HEAD 2>/dev/null || echo unknown)" > "$OUT/$rr/$scene/RUN"
   done
 done
 # Every scene with results, in the pack's order.
@@ -58,6 +66,17 @@ for scene in cornell-box veach-mis veach-ajar staircase living-room; do
     ALL_SCENES="$ALL_SCENES $scene"
   fi
 done
+# Ratios between parts or scenes run at different budgets or clocks would
+# compare unlike runs.
+BUDGETS=$(for rr in classic adrrs; do for scene in $ALL_SCENES; do
+  f="$OUT/$rr/$scene/summary.md"; [ -f "$f" ] && grep -m1 '^Budget ' "$f" | sed 's/ (training included).*//'
+done; done | sort -u)
+if [ "$(printf '%s\n' "$BUDGETS" | wc -l)" -gt 1 ]; then
+  echo "roulette_study.sh: the parts under $OUT ran at different budgets, rerun them alike:" >&2
+  printf '%s\n' "$BUDGETS" >&2
+  rm -f "$PAGE"
+  exit 2
+fi
 {
   for rr in classic adrrs; do
     for scene in $ALL_SCENES; do
