@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Redraws the committed comparison pages' curves and time-to-error tables from
-their runs' curves.csv, without rendering again.
+their runs' curves.csv, and their cost sections from runs.csv where a folder has
+one, without rendering again.
 
 For every compare folder of a page (docs/results/<scene>, docs/results-240s/<scene>,
 docs/study/{classic,adrrs}/<scene>), runs `ltcguide replot` on it, which rewrites
@@ -56,10 +57,10 @@ def main():
             subprocess.run([binary, "replot", f], check=True)
             new = body(open(os.path.join(f, "summary.md")).read())
             text = text.replace(olds[f], new, 1)
-        note = (f"{MARK} at ltcguide {commit} on {when}: the runs of a method are averaged at common "
-                f"times (before, snapshot by snapshot, which mixed times and dropped final snapshots "
-                f"when runs took different numbers of them), and a method reaches an error when its "
-                f"curve stays at or below it.\n")
+        note = (f"{MARK} (and cost sections from `runs.csv`) at ltcguide {commit} on {when}: "
+                f"the runs of a method are averaged at common times, a method reaches an error "
+                f"when its curve stays at or below it, and a cost section names the runs whose "
+                f"image holds path tracing's passes alone, whose spp is not what they traced.\n")
         write_page(page, with_note(text, note, MARK))
         print(f"{page}: {len(folders)} comparisons redrawn")
 

@@ -148,6 +148,8 @@ fn bad_arguments_are_refused_before_the_scene_is_read() {
         (&["--max-depth", "0"], "--max-depth"),
         (&["--spatial-threshold", "0"], "--spatial-threshold"),
         (&["--adrrs-window", "0.5"], "--adrrs-window"),
+        // A clock is for a time budget; with --spp it would do nothing.
+        (&["--clock", "cpu"], "--clock cpu"),
     ] {
         let (code, err) = render(&missing, &[&["--out", out][..], args].concat());
         assert_refused(code, &err, expect, &dir, &[]);

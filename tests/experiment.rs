@@ -157,6 +157,23 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
         std::fs::read_to_string(dir.join("summary.md")).unwrap(),
         summary
     );
+    // A cost section written by an older build is rewritten from runs.csv
+    // and the plan lines, and nothing else of the summary changes.
+    let cost_at = summary.find(COST_HEADING).unwrap();
+    let stale = format!(
+        "{}{COST_HEADING}\n\nstale text\n| pt | 1 |\n\n{}",
+        &summary[..cost_at],
+        &summary[summary[cost_at..]
+            .find("\n## ")
+            .map_or(summary.len(), |i| cost_at + i + 1)..]
+    );
+    assert_ne!(stale, summary);
+    std::fs::write(dir.join("summary.md"), &stale).unwrap();
+    assert!(run_replot(&dir).status.success());
+    assert_eq!(
+        std::fs::read_to_string(dir.join("summary.md")).unwrap(),
+        summary
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -216,12 +216,20 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
     assert_eq!(runs, [1, 1]);
     assert!(
         merged.summary.contains(COST_HEADING)
-            && merged.summary.contains(&format!(
-                "`{}` (seeds 1000) predate `runs.csv` and",
-                a.display()
-            )),
+            && merged.summary.contains(
+                "covers seeds 1001, the runs that recorded it; seeds 1000 predate `runs.csv`"
+            ),
         "{}",
         merged.summary
+    );
+    // `replot` rebuilds the pooled cost section, coverage note included,
+    // exactly as `merge` wrote it.
+    let pooled = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    let replotted = ltcguide::experiment::replot::replot(&out).unwrap();
+    assert!(replotted.cost_rewritten);
+    assert_eq!(
+        std::fs::read_to_string(out.join("summary.md")).unwrap(),
+        pooled
     );
     // No source with costs: no table, and no stale runs.csv in `out`.
     let c = temp("cc");

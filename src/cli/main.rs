@@ -324,6 +324,9 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         (None, Some(t)) => Budget::Seconds(t),
         (None, None) => Budget::Spp(64),
     };
+    if args.clock == TimeBase::Cpu && !matches!(budget, Budget::Seconds(_)) {
+        return Err("--clock cpu measures a --time budget; a sample budget has no clock".into());
+    }
     if let Some(d) = args.max_depth
         && d != -1
         && d < 1

@@ -145,8 +145,13 @@ pub fn cmd_attribute(
 pub fn cmd_replot(dirs: &[PathBuf]) -> Result<(), String> {
     dirs.iter().try_for_each(|d| {
         let r = ltcguide::experiment::replot::replot(d)?;
+        let cost = if r.cost_rewritten {
+            ", the cost section from runs.csv"
+        } else {
+            ""
+        };
         println!(
-            "{}: curves.svg and the time-to-error table redrawn from {} rows ({})",
+            "{}: curves.svg and the time-to-error table redrawn from {} rows ({}){cost}",
             d.display(),
             r.rows,
             r.methods.join(", ")

@@ -431,7 +431,7 @@ fn summary_markdown(
     s.push_str(&final_errors_table(rows, curves));
     s.push_str(&speedup_section(curves));
     let methods: Vec<String> = opts.methods.iter().map(|&m| method_name(m)).collect();
-    s.push_str(&cost_section(cost_rows, &methods));
+    s.push_str(&cost_section(cost_rows, &methods, opts.time_base, notes));
     if !notes.is_empty() {
         let _ = writeln!(s, "\n## Per-scene plan\n");
         for n in notes {
@@ -475,6 +475,18 @@ pub fn summary_time_base(summary: &str) -> TimeBase {
         Some(l) if l.contains(CPU_BUDGET_UNIT) => TimeBase::Cpu,
         _ => TimeBase::Wall,
     }
+}
+
+/// The items ("- …" lines) of a summary's section under `heading`, up to the
+/// next section or the closing "Files:" line.
+pub fn summary_items(summary: &str, heading: &str) -> Vec<String> {
+    summary
+        .lines()
+        .skip_while(|l| !l.starts_with(heading))
+        .skip(1)
+        .take_while(|l| !l.starts_with("## ") && !l.starts_with("Files:"))
+        .filter_map(|l| l.strip_prefix("- ").map(str::to_string))
+        .collect()
 }
 
 /// The curves' time axis.

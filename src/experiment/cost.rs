@@ -8,7 +8,10 @@
 //! CPU second (its own cost per sample). `curves.csv` holds wall-clock time
 //! alone and cannot tell the two apart; this file can.
 
+use super::compare::seeds_phrase;
 use super::curves::{non_negative_field, parse_records};
+use crate::guiding::trial::FALLBACK_IMAGE;
+use crate::render::TimeBase;
 use std::fmt::Write;
 
 /// One run of one method.
@@ -111,8 +114,15 @@ pub const COST_HEADING: &str = "## Cost: wall clock, CPU and samples";
 /// The summary's cost section: per method, mean wall and CPU seconds,
 /// cores used and samples per CPU second, and the three ratios to
 /// `radiance` (or to the first method without one) that decompose the
-/// equal-time spp ratio.
-pub fn cost_section(rows: &[CostRow], methods: &[String]) -> String {
+/// equal-time spp ratio. `plan_items` are the runs' plan lines ("METHOD,
+/// seed S: plan: …"), which say which runs imaged path tracing's passes
+/// alone: their spp is not what they traced.
+pub fn cost_section(
+    rows: &[CostRow],
+    methods: &[String],
+    time_base: TimeBase,
+    plan_items: &[String],
+) -> String {
     let costs = method_costs(rows, methods);
     let Some(base) = costs
         .iter()
@@ -123,11 +133,22 @@ pub fn cost_section(rows: &[CostRow], methods: &[String]) -> String {
     };
     let mut s = String::new();
     let _ = writeln!(s, "\n{COST_HEADING}\n");
+    let clock = match time_base {
+        TimeBase::Wall => {
+            "At equal wall time, a method's CPU ratio is the share of the cores it was \
+                           given (side by side, the scheduler decides it)"
+                .to_string()
+        }
+        TimeBase::Cpu => {
+            "At equal CPU time (`--clock cpu`), a method's CPU ratio is 1 but for where \
+                          each run stopped (within half a pass of its budget)"
+                .to_string()
+        }
+    };
     let _ = writeln!(
         s,
         "Means over each method's runs (`{COST_CSV}`). CPU is the CPU time of the render's own \
-         threads. At equal wall time, a method's spp ratio to `{}` is its CPU ratio (the share of \
-         the cores it was given; side by side the scheduler decides it) times its ratio of spp per \
+         threads. {clock}. A method's spp ratio to `{}` is its CPU ratio times its ratio of spp per \
          CPU second (its own cost per sample, as the machine ran it).\n",
         base.method
     );
@@ -161,7 +182,51 @@ pub fn cost_section(rows: &[CostRow], methods: &[String]) -> String {
             "\n— : a run of that method could not read its CPU clock; its CPU figures are left out."
         );
     }
+    let handed_over: Vec<String> = costs
+        .iter()
+        .filter_map(|c| {
+            let runs = rows.iter().filter(|r| r.method == c.method).count();
+            let marker = format!("{}, seed ", c.method);
+            let fell_back = plan_items
+                .iter()
+                .filter(|item| item.contains(&marker) && item.contains(FALLBACK_IMAGE))
+                .count();
+            (fell_back > 0).then(|| format!("{} {fell_back} of {runs}", c.method))
+        })
+        .collect();
+    if !handed_over.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nRuns that handed the rest of their budget to path tracing and image its passes alone \
+             (their plan lines say so): {}. Their spp counts the image's passes, not the samples \
+             they traced, so for those methods spp per CPU second is not the cost per sample.",
+            handed_over.join(", ")
+        );
+    }
     s
+}
+
+/// Where `costs` hold fewer runs than the comparison (`all_runs`, the runs
+/// of its curves): which seeds the cost table covers and which predate
+/// `runs.csv`. Empty when it covers them all, or none.
+pub fn cost_coverage_note(all_runs: &[u32], costs: &[CostRow]) -> String {
+    let mut covered: Vec<u32> = costs.iter().map(|c| c.run).collect();
+    covered.sort_unstable();
+    covered.dedup();
+    let missing: Vec<u32> = all_runs
+        .iter()
+        .copied()
+        .filter(|r| !covered.contains(r))
+        .collect();
+    if covered.is_empty() || missing.is_empty() {
+        return String::new();
+    }
+    format!(
+        "\nThe cost table covers seeds {}, the runs that recorded it; seeds {} predate \
+         `{COST_CSV}` and are not in it.\n",
+        seeds_phrase(&covered),
+        seeds_phrase(&missing)
+    )
 }
 
 #[cfg(test)]
@@ -214,7 +279,7 @@ mod tests {
         let cpu_ratio = p.mean_cpu_seconds.unwrap() / r.mean_cpu_seconds.unwrap();
         let per_cpu = p.spp_per_cpu_second().unwrap() / r.spp_per_cpu_second().unwrap();
         assert!((spp_ratio - cpu_ratio * per_cpu).abs() < 1e-12);
-        let section = cost_section(&rows, &methods);
+        let section = cost_section(&rows, &methods, TimeBase::Wall, &[]);
         // Ratios are to radiance: 45/70, 5.5/6.5 and (45/5.5)/(70/6.5).
         let line = section
             .lines()
@@ -230,7 +295,42 @@ mod tests {
             )
         );
         assert!(section.contains("spp ratio to `radiance`"));
+        assert!(section.contains("At equal wall time"));
         assert!(!section.contains("could not read"));
+        assert!(!section.contains("handed the rest of their budget"));
+        // On the CPU clock the text says so; the table is the same.
+        let cpu = cost_section(&rows, &methods, TimeBase::Cpu, &[]);
+        assert!(cpu.contains("At equal CPU time"));
+        assert!(cpu.contains(line));
+    }
+
+    /// Runs whose plan line says their image holds path tracing's passes
+    /// alone are counted per method, and the section says their spp is not
+    /// what they traced; other plan lines and methods are not counted.
+    #[test]
+    fn runs_that_fell_back_to_path_tracing_are_named() {
+        let rows = vec![
+            row("pt", 0, 10.0, Some(6.0), 60),
+            row("radiance", 0, 10.0, Some(6.0), 60),
+            row("radiance", 1, 10.0, Some(6.0), 60),
+            row("product", 0, 10.0, Some(6.0), 40),
+            row("product", 1, 10.0, Some(6.0), 50),
+        ];
+        let methods: Vec<String> = ["pt", "radiance", "product"].map(String::from).to_vec();
+        let plans = [
+            "pt, seed 1000: plan: method pt | guiding off".to_string(),
+            format!(
+                "radiance, seed 1000: plan: method radiance | guiding on | x: {FALLBACK_IMAGE}"
+            ),
+            "radiance, seed 1001: plan: method radiance | guiding on".to_string(),
+            format!("`a`: product, seed 1000: plan: method product | y, and {FALLBACK_IMAGE}"),
+            format!("`b`: product, seed 1001: plan: method product | z, and {FALLBACK_IMAGE}"),
+        ];
+        let section = cost_section(&rows, &methods, TimeBase::Wall, &plans);
+        assert!(
+            section.contains("their plan lines say so): radiance 1 of 2, product 2 of 2."),
+            "{section}"
+        );
     }
 
     #[test]
@@ -241,7 +341,7 @@ mod tests {
             row("product", 1, 10.0, Some(6.0), 50),
         ];
         let methods: Vec<String> = ["radiance", "product"].map(String::from).to_vec();
-        let section = cost_section(&rows, &methods);
+        let section = cost_section(&rows, &methods, TimeBase::Wall, &[]);
         let line = section
             .lines()
             .find(|l| l.starts_with("| product"))
@@ -250,7 +350,8 @@ mod tests {
         assert!(section.contains("could not read its CPU clock"));
         // Without radiance runs the first method is the base.
         let only_pt = vec![row("pt", 0, 2.0, Some(2.0), 8)];
-        assert!(cost_section(&only_pt, &["pt".into()]).contains("spp ratio to `pt`"));
-        assert_eq!(cost_section(&[], &methods), "");
+        let only_pt_section = cost_section(&only_pt, &["pt".into()], TimeBase::Wall, &[]);
+        assert!(only_pt_section.contains("spp ratio to `pt`"));
+        assert_eq!(cost_section(&[], &methods, TimeBase::Wall, &[]), "");
     }
 }

@@ -11,9 +11,11 @@
 
 use super::compare::{
     SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase, seeds_phrase,
-    speedup_section, summary_time_base, time_axis_label,
+    speedup_section, summary_items, summary_time_base, time_axis_label,
 };
-use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
+use super::cost::{
+    COST_CSV, CostRow, cost_coverage_note, cost_section, parse_cost_csv, to_cost_csv,
+};
 use super::curves::{
     CurveRow, MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers, to_csv,
 };
@@ -85,14 +87,7 @@ fn parse_summary(text: &str) -> Result<SourceSummary, String> {
         .lines()
         .find(|l| l.starts_with(SETTINGS_PREFIX))
         .ok_or("no 'Path settings: …' line")?;
-    let items = |heading: &str| -> Vec<String> {
-        text.lines()
-            .skip_while(|l| !l.starts_with(heading))
-            .skip(1)
-            .take_while(|l| !l.starts_with("## ") && !l.starts_with("Files:"))
-            .filter_map(|l| l.strip_prefix("- ").map(str::to_string))
-            .collect()
-    };
+    let items = |heading: &str| summary_items(text, heading);
     Ok(SourceSummary {
         scene,
         budget: budget_line[..budget_end].to_string(),
@@ -340,25 +335,17 @@ fn pooled_summary(
     s.push_str(&final_errors_table(rows, curves));
     s.push_str(&speedup_section(curves));
     let methods: Vec<String> = curves.iter().map(|c| c.method.clone()).collect();
-    s.push_str(&cost_section(costs, &methods));
-    let without: Vec<String> = parsed
+    let plan_items: Vec<String> = parsed
         .iter()
-        .filter(|source| source.costs.is_none())
-        .map(|Source { dir, rows, .. }| {
-            format!(
-                "`{}` (seeds {})",
-                dir.display(),
-                seeds_phrase(&run_numbers(rows))
-            )
-        })
+        .flat_map(|source| source.summary.plan.iter().cloned())
         .collect();
-    if !costs.is_empty() && !without.is_empty() {
-        let _ = writeln!(
-            s,
-            "\nThe cost table covers the runs of the comparisons that recorded it; {} predate `{COST_CSV}` and are not in it.",
-            without.join(", ")
-        );
-    }
+    s.push_str(&cost_section(
+        costs,
+        &methods,
+        summary_time_base(&first.budget),
+        &plan_items,
+    ));
+    s.push_str(&cost_coverage_note(&run_numbers(rows), costs));
     let section = |s: &mut String, heading: &str, pick: fn(&SourceSummary) -> &Vec<String>| {
         if parsed
             .iter()

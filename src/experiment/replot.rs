@@ -5,9 +5,10 @@
 //! corrected this way rather than by hours of new renders.
 
 use super::compare::{
-    SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section, summary_time_base,
-    time_axis_label,
+    SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section, summary_items,
+    summary_time_base, time_axis_label,
 };
+use super::cost::{COST_CSV, COST_HEADING, cost_coverage_note, cost_section, parse_cost_csv};
 use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
 use super::plot::curves_svg;
 use crate::film::write_atomic;
@@ -22,10 +23,14 @@ pub struct Replotted {
     /// the summary has none, i.e. no radiance runs).
     pub old_section: String,
     pub new_section: String,
+    /// The cost section was rewritten from `runs.csv` (false: the folder
+    /// has none, as comparisons before it).
+    pub cost_rewritten: bool,
 }
 
 /// Rewrites `dir/curves.svg` and the time-to-error section of
-/// `dir/summary.md` from `dir/curves.csv`. Both files must exist (a
+/// `dir/summary.md` from `dir/curves.csv`, and the cost section from
+/// `dir/runs.csv` and the summary's plan lines where the folder has one. Both files must exist (a
 /// `compare` output folder); nothing is written when either cannot be read
 /// or parsed.
 pub fn replot(dir: &Path) -> Result<Replotted, String> {
@@ -58,8 +63,25 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
         &curves,
     )?;
     let new_section = speedup_section(&curves);
-    let (old_section, new_summary) = replace_speedup_section(&summary, &new_section)
-        .map_err(|e| format!("{}: {e}", dir.join("summary.md").display()))?;
+    let in_summary = |e: String| format!("{}: {e}", dir.join("summary.md").display());
+    let (old_section, mut new_summary) =
+        replace_section(&summary, SPEEDUP_HEADING, &new_section).map_err(in_summary)?;
+    let cost_path = dir.join(COST_CSV);
+    let cost_rewritten = match std::fs::read_to_string(&cost_path) {
+        Ok(text) => {
+            let costs =
+                parse_cost_csv(&text).map_err(|e| format!("{}: {e}", cost_path.display()))?;
+            let plans = summary_items(&summary, "## Per-scene plan");
+            let section = cost_section(&costs, &methods, summary_time_base(&summary), &plans)
+                + &cost_coverage_note(&run_numbers(&rows), &costs);
+            new_summary = replace_section(&new_summary, COST_HEADING, &section)
+                .map_err(in_summary)?
+                .1;
+            true
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
+        Err(e) => return Err(format!("{}: {e}", cost_path.display())),
+    };
     write_atomic(&dir.join("curves.svg"), svg.as_bytes())?;
     write_atomic(&dir.join("summary.md"), new_summary.as_bytes())?;
     Ok(Replotted {
@@ -67,18 +89,23 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
         methods,
         old_section,
         new_section,
+        cost_rewritten,
     })
 }
 
-/// The summary with its time-to-error section (from its heading to the next
-/// heading or the closing "Files:" line) replaced by `section`, and the
-/// section it held. A summary without the section must get none.
-fn replace_speedup_section(summary: &str, section: &str) -> Result<(String, String), String> {
-    let Some(start) = summary.find(&format!("\n{SPEEDUP_HEADING}\n")) else {
+/// The section it held, and the summary with its section under `heading`
+/// (from the heading to the next heading or the closing "Files:" line)
+/// replaced by `section`. A summary without the section must get none.
+fn replace_section(
+    summary: &str,
+    heading: &str,
+    section: &str,
+) -> Result<(String, String), String> {
+    let Some(start) = summary.find(&format!("\n{heading}\n")) else {
         if section.is_empty() {
             return Ok((String::new(), summary.to_string()));
         }
-        return Err("no time-to-error section to replace".into());
+        return Err(format!("no '{heading}' section to replace"));
     };
     let rest = &summary[start + 1..];
     let end = [rest.find("\n## "), rest.find("\nFiles:")]
@@ -104,7 +131,7 @@ mod tests {
             "# s: equal-time comparison\n\n| table |\n\n{SPEEDUP_HEADING}\n\nold\n| pt | 1× |\n\n## Per-scene plan\n\n- x\n\nFiles: y\n"
         );
         let new = format!("\n{SPEEDUP_HEADING}\n\nnew\n");
-        let (old, s) = replace_speedup_section(&summary, &new).unwrap();
+        let (old, s) = replace_section(&summary, SPEEDUP_HEADING, &new).unwrap();
         assert_eq!(old, format!("\n{SPEEDUP_HEADING}\n\nold\n| pt | 1× |\n"));
         assert_eq!(
             s,
@@ -114,11 +141,14 @@ mod tests {
         );
         // Without a later heading, the section ends at "Files:".
         let short = format!("a\n{SPEEDUP_HEADING}\n\nold\n\nFiles: y\n");
-        let (old, s) = replace_speedup_section(&short, &new).unwrap();
+        let (old, s) = replace_section(&short, SPEEDUP_HEADING, &new).unwrap();
         assert_eq!(old, format!("\n{SPEEDUP_HEADING}\n\nold\n"));
         assert_eq!(s, format!("a{new}\nFiles: y\n"));
         // No radiance runs: no section before or after.
-        assert_eq!(replace_speedup_section("a\n", "").unwrap().1, "a\n");
-        assert!(replace_speedup_section("a\n", &new).is_err());
+        assert_eq!(
+            replace_section("a\n", SPEEDUP_HEADING, "").unwrap().1,
+            "a\n"
+        );
+        assert!(replace_section("a\n", SPEEDUP_HEADING, &new).is_err());
     }
 }

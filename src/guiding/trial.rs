@@ -59,6 +59,11 @@ const CALLS_PER_SIDE: u32 = 2;
 /// path tracing's, which it keeps.
 pub const EARLY_FALLBACK_LEAD: f64 = 4.0;
 
+/// How a fallback's plan line ends: its image holds only path tracing's
+/// passes, so its spp is not the number of samples the run traced
+/// (`experiment::cost` looks for these words).
+pub const FALLBACK_IMAGE: &str = "the image holds path tracing's passes alone";
+
 struct Side {
     strategy: Strategy,
     film: Film,
@@ -223,7 +228,7 @@ impl StrategyTrial {
                 )
             };
             format!(
-                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp{early}): the rest of the budget is rendered by path tracing with NEE, and the image holds path tracing's passes alone",
+                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp{early}): the rest of the budget is rendered by path tracing with NEE, and {FALLBACK_IMAGE}",
                 unguided.film.spp,
                 guided.2,
                 guided.1,
