@@ -71,23 +71,21 @@ impl RenderClock {
         }
     }
 
-    /// A clock in `base`, started now; a CPU clock reads the threads of
-    /// `pool`, which must run the whole render.
-    pub fn start_in(base: TimeBase, pool: &rayon::ThreadPool) -> Result<Self, String> {
-        let mut clock = RenderClock::start();
-        if base == TimeBase::Cpu {
-            let cpu = PoolCpuClock::of(pool)?;
-            let start = cpu
-                .total_seconds()
-                .ok_or("cannot read a render thread's CPU clock")?;
-            clock.cpu = Some(CpuSeconds {
+    /// A clock on the CPU time of the pool whose threads `cpu` reads (per
+    /// thread), started now. The pool must run the whole render.
+    pub fn on_cpu(cpu: PoolCpuClock) -> Result<Self, String> {
+        let start = cpu
+            .total_seconds()
+            .ok_or("cannot read a render thread's CPU clock")?;
+        Ok(RenderClock {
+            cpu: Some(CpuSeconds {
                 clock: cpu,
                 start,
                 last: Cell::new((0.0, Instant::now())),
                 failed_reads: Cell::new(0),
-            });
-        }
-        Ok(clock)
+            }),
+            ..RenderClock::start()
+        })
     }
 
     pub fn base(&self) -> TimeBase {
@@ -283,7 +281,7 @@ mod tests {
             .num_threads(2)
             .build()
             .unwrap();
-        let mut clock = RenderClock::start_in(TimeBase::Cpu, &pool).unwrap();
+        let mut clock = RenderClock::on_cpu(PoolCpuClock::of(&pool).unwrap()).unwrap();
         assert_eq!(clock.base(), TimeBase::Cpu);
         std::thread::sleep(std::time::Duration::from_millis(150));
         let idle = clock.seconds();
@@ -303,7 +301,7 @@ mod tests {
             "excluded work moved the clock from {busy} to {after} s"
         );
         assert_eq!(clock.failed_reads(), 0);
-        let wall = RenderClock::start_in(TimeBase::Wall, &pool).unwrap();
+        let wall = RenderClock::start();
         assert_eq!(wall.base(), TimeBase::Wall);
         std::thread::sleep(std::time::Duration::from_millis(20));
         assert!(wall.seconds() >= 0.02);

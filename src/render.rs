@@ -210,9 +210,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);
-    let cpu = PoolCpuClock::of(&pool).ok();
-    let cpu_before = cpu.as_ref().and_then(PoolCpuClock::total_seconds);
-    let mut clock = RenderClock::start_in(opts.time_base, &pool)?;
+    let cpu = PoolCpuClock::of(&pool);
+    let cpu_before = cpu.as_ref().ok().and_then(PoolCpuClock::total_seconds);
+    let mut clock = match opts.time_base {
+        TimeBase::Wall => RenderClock::start(),
+        TimeBase::Cpu => RenderClock::on_cpu(cpu.clone()?)?,
+    };
     let mut snapshots = SnapshotPlan::at(opts.snapshot_times.clone());
     let (len, what) = match opts.budget {
         Budget::Spp(n) => (n as u64, format!("{:?} spp", opts.method)),
@@ -288,7 +291,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
     let seconds = clock.wall_seconds();
     let clock_seconds = clock.seconds();
     let cpu_seconds = match (&cpu, cpu_before) {
-        (Some(c), Some(before)) => c.total_seconds().map_or(f64::NAN, |t| t - before),
+        (Ok(c), Some(before)) => c.total_seconds().map_or(f64::NAN, |t| t - before),
         _ => f64::NAN,
     };
     let mean = image.mean_rgb();
