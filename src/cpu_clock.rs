@@ -49,16 +49,11 @@ impl PoolCpuClock {
     }
 }
 
-/// CPU seconds the calling thread has consumed so far.
-pub fn this_thread_cpu_seconds() -> Option<f64> {
-    read_clock(libc::CLOCK_THREAD_CPUTIME_ID)
-}
-
 /// Works until the calling thread has used `seconds` of CPU (on a loaded
 /// machine that takes longer in wall time): a known amount of CPU for tests.
 #[cfg(test)]
 pub(crate) fn spin_cpu(seconds: f64) -> f64 {
-    let own = || this_thread_cpu_seconds().unwrap();
+    let own = || read_clock(libc::CLOCK_THREAD_CPUTIME_ID).unwrap();
     let t0 = own();
     let mut x = 1.0f64;
     while own() - t0 < seconds {

@@ -433,7 +433,7 @@ fn summary_markdown(
     let methods: Vec<String> = opts.methods.iter().map(|&m| method_name(m)).collect();
     s.push_str(&cost_section(cost_rows, &methods, opts.time_base, notes));
     if !notes.is_empty() {
-        let _ = writeln!(s, "\n## Per-scene plan\n");
+        let _ = writeln!(s, "\n{PLAN_HEADING}\n");
         for n in notes {
             let _ = writeln!(s, "- {n}");
         }
@@ -488,6 +488,9 @@ pub fn summary_items(summary: &str, heading: &str) -> Vec<String> {
         .filter_map(|l| l.strip_prefix("- ").map(str::to_string))
         .collect()
 }
+
+/// Heading of a summary's section listing every run's plan line.
+pub const PLAN_HEADING: &str = "## Per-scene plan";
 
 /// The curves' time axis.
 pub fn time_axis_label(base: TimeBase) -> &'static str {

@@ -136,13 +136,11 @@ pub fn cost_section(
     let clock = match time_base {
         TimeBase::Wall => {
             "At equal wall time, a method's CPU ratio is the share of the cores it was \
-                           given (side by side, the scheduler decides it)"
-                .to_string()
+             given (side by side, the scheduler decides it)"
         }
         TimeBase::Cpu => {
             "At equal CPU time (`--clock cpu`), a method's CPU ratio is 1 but for where \
-                          each run stopped (within half a pass of its budget)"
-                .to_string()
+             each run stopped (within half a pass of its budget)"
         }
     };
     let _ = writeln!(

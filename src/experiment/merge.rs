@@ -10,8 +10,8 @@
 //! refused before a file is written.
 
 use super::compare::{
-    SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase, seeds_phrase,
-    speedup_section, summary_items, summary_time_base, time_axis_label,
+    PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase,
+    seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
 };
 use super::cost::{
     COST_CSV, CostRow, cost_coverage_note, cost_section, parse_cost_csv, to_cost_csv,
@@ -93,7 +93,7 @@ fn parse_summary(text: &str) -> Result<SourceSummary, String> {
         budget: budget_line[..budget_end].to_string(),
         machine: machine.to_string(),
         settings: settings.to_string(),
-        plan: items("## Per-scene plan"),
+        plan: items(PLAN_HEADING),
         guards: items("## Guards"),
     })
 }
@@ -367,7 +367,7 @@ fn pooled_summary(
             }
         }
     };
-    section(&mut s, "## Per-scene plan", |src| &src.plan);
+    section(&mut s, PLAN_HEADING, |src| &src.plan);
     section(&mut s, "## Guards", |src| &src.guards);
     let _ = writeln!(
         s,

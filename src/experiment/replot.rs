@@ -5,8 +5,8 @@
 //! corrected this way rather than by hours of new renders.
 
 use super::compare::{
-    SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section, summary_items,
-    summary_time_base, time_axis_label,
+    PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section,
+    summary_items, summary_time_base, time_axis_label,
 };
 use super::cost::{COST_CSV, COST_HEADING, cost_coverage_note, cost_section, parse_cost_csv};
 use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
@@ -71,7 +71,7 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
         Ok(text) => {
             let costs =
                 parse_cost_csv(&text).map_err(|e| format!("{}: {e}", cost_path.display()))?;
-            let plans = summary_items(&summary, "## Per-scene plan");
+            let plans = summary_items(&summary, PLAN_HEADING);
             let section = cost_section(&costs, &methods, summary_time_base(&summary), &plans)
                 + &cost_coverage_note(&run_numbers(&rows), &costs);
             new_summary = replace_section(&new_summary, COST_HEADING, &section)
