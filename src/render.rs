@@ -157,6 +157,15 @@ pub struct RenderStats {
     pub guiding: Option<GuidingStats>,
 }
 
+impl RenderStats {
+    /// Samples per pixel the render traced: its image's, and the guided
+    /// passes a fallback to path tracing left out of it
+    /// ([`GuidingStats::left_out_spp`]).
+    pub fn traced_spp(&self) -> u32 {
+        self.spp + self.guiding.as_ref().map_or(0, |g| g.left_out_spp)
+    }
+}
+
 pub struct RenderResult {
     pub image: Image,
     /// Per-pixel variance of the estimate (of the mean), channel average.

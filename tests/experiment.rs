@@ -9,6 +9,7 @@ use ltcguide::experiment::cost::{COST_CSV, COST_HEADING, parse_cost_csv};
 use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
 use ltcguide::film::exr_io::write_rgb;
 use ltcguide::film::image::Image;
+use ltcguide::guiding::trial::FALLBACK_IMAGE;
 use ltcguide::integrator::path::RouletteMode;
 use ltcguide::render::{Budget, Method, RenderOptions, TimeBase, render};
 use ltcguide::scene::Scene;
@@ -365,6 +366,24 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
             .rfind(|r| r.method == c.method && r.run == c.run)
             .unwrap();
         assert_eq!(c.spp, last.spp);
+        // A run traces its image's samples, and more only if its plan
+        // handed the rest of its budget to path tracing.
+        let traced = c.traced_spp.expect("compare records traced samples");
+        let seed = 1000 + c.run;
+        let fell_back = plan_lines.iter().any(|l| {
+            l.contains(&format!("- {}, seed {seed}: ", c.method)) && l.contains(FALLBACK_IMAGE)
+        });
+        assert!(
+            if fell_back {
+                traced > c.spp
+            } else {
+                traced == c.spp
+            },
+            "{} run {}: traced {traced}, image {} spp, fallback {fell_back}",
+            c.method,
+            c.run,
+            c.spp
+        );
         assert!((c.seconds - last.seconds).abs() < 1e-5);
         let cpu = c.cpu_seconds.expect("Linux has a per-thread CPU clock");
         assert!(
@@ -375,15 +394,29 @@ fn compare_side_by_side_runs_every_method_and_says_so() {
             c.seconds
         );
     }
-    let cost_lines: Vec<&str> = outcome
+    let is_method_row = |l: &&str| {
+        l.starts_with("| pt |") || l.starts_with("| radiance |") || l.starts_with("| product |")
+    };
+    let mut section = outcome
         .summary
         .lines()
         .skip_while(|l| *l != COST_HEADING)
-        .filter(|l| {
-            l.starts_with("| pt |") || l.starts_with("| radiance |") || l.starts_with("| product |")
-        })
+        .take_while(|l| *l == COST_HEADING || !l.starts_with("## "));
+    let cost_lines: Vec<&str> = section
+        .by_ref()
+        .take_while(|l| !l.starts_with("Counting every sample"))
+        .filter(is_method_row)
         .collect();
     assert_eq!(cost_lines.len(), 3, "{}", outcome.summary);
+    // The traced table follows where a run left passes out, with every method.
+    let traced_rows = section.filter(is_method_row).count();
+    let any_left_out = costs.iter().any(|c| c.traced_spp > Some(c.spp));
+    assert_eq!(
+        traced_rows,
+        if any_left_out { 3 } else { 0 },
+        "{}",
+        outcome.summary
+    );
     // Radiance is the base: its three ratios are 1.
     assert!(
         cost_lines[1].ends_with("| 1.000 | 1.000 | 1.000 |"),

@@ -473,6 +473,11 @@ fn a_fallback_images_path_tracing_alone_without_bias() {
     let left_out = 7 + trial_guided;
     assert_eq!(guiding.left_out_spp, left_out);
     assert_eq!(product.stats.spp, 48 - left_out);
+    // Every pass it traced is counted, the left-out ones too: one path per
+    // pixel and pass.
+    assert_eq!(product.stats.traced_spp(), 48);
+    let pixels = (product.stats.width * product.stats.height) as u64;
+    assert_eq!(product.stats.counters.paths, 48 * pixels);
     let image_spp: Vec<u32> = guiding.iterations.iter().map(|i| i.image_spp).collect();
     assert_eq!(image_spp[..4], [0, 0, 0, check_image]);
     assert_eq!(image_spp.iter().sum::<u32>(), 48 - left_out);

@@ -212,6 +212,7 @@ pub fn run_compare(
                 seconds: result.stats.seconds,
                 cpu_seconds: Some(result.stats.cpu_seconds).filter(|c| c.is_finite()),
                 spp: result.stats.spp,
+                traced_spp: Some(result.stats.traced_spp()),
             });
             let seed = result.stats.seed;
             let guards = &result.stats.guards;
@@ -451,7 +452,7 @@ fn summary_markdown(
     let _ = writeln!(
         s,
         "\nFiles: `curves.csv` (every snapshot of every run), `{COST_CSV}` (every run's wall and CPU \
-         seconds and spp), `curves.svg`, `<method>.exr/png` (first run), \
+         seconds, its image's spp and the spp it traced), `curves.svg`, `<method>.exr/png` (first run), \
          `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
     );
     s

@@ -1,5 +1,6 @@
 //! What each run of a comparison cost: wall-clock seconds, the CPU seconds
-//! of its own threads, and the samples it took (`runs.csv`).
+//! of its own threads, the samples its image holds and the samples it
+//! traced (`runs.csv`).
 //!
 //! An equal-time comparison fixes wall-clock time. Side by side, the
 //! methods of a run share the cores through the OS scheduler, so a method's
@@ -24,10 +25,18 @@ pub struct CostRow {
     /// CPU seconds of the render's own threads; `None` where the clock could
     /// not be read (the render reported NaN).
     pub cpu_seconds: Option<f64>,
+    /// Samples per pixel of the image.
     pub spp: u32,
+    /// Samples per pixel the run traced: the image's, and the passes it
+    /// left out of the image (a strategy trial's guided passes before a
+    /// fallback to path tracing). `None` in files written before the column.
+    pub traced_spp: Option<u32>,
 }
 
-pub const COST_CSV_HEADER: &str = "method,run,seconds,cpu_seconds,spp";
+pub const COST_CSV_HEADER: &str = "method,run,seconds,cpu_seconds,spp,traced_spp";
+
+/// The header of files written before `traced_spp`; they still parse.
+const COST_CSV_HEADER_WITHOUT_TRACED: &str = "method,run,seconds,cpu_seconds,spp";
 
 /// The file `compare` writes next to `curves.csv`.
 pub const COST_CSV: &str = "runs.csv";
@@ -38,14 +47,38 @@ pub fn to_cost_csv(rows: &[CostRow]) -> String {
     for r in rows {
         // An unreadable clock stays an empty field, not a NaN in the file.
         let cpu = r.cpu_seconds.map_or(String::new(), |c| format!("{c:.6}"));
-        let _ = writeln!(s, "{},{},{:.6},{cpu},{}", r.method, r.run, r.seconds, r.spp);
+        let traced = r.traced_spp.map_or(String::new(), |t| t.to_string());
+        let _ = writeln!(
+            s,
+            "{},{},{:.6},{cpu},{},{traced}",
+            r.method, r.run, r.seconds, r.spp
+        );
     }
     s
 }
 
+/// Parses `runs.csv`, with or without its `traced_spp` column.
 pub fn parse_cost_csv(text: &str) -> Result<Vec<CostRow>, String> {
-    parse_records(text, COST_CSV_HEADER, |l, f| {
+    let header = if text.lines().next() == Some(COST_CSV_HEADER_WITHOUT_TRACED) {
+        COST_CSV_HEADER_WITHOUT_TRACED
+    } else {
+        COST_CSV_HEADER
+    };
+    parse_records(text, header, |l, f| {
         let num = |s: &str| non_negative_field(s, l);
+        let spp: u32 = f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?;
+        let traced_spp = match f.get(5) {
+            None | Some(&"") => None,
+            Some(t) => match t.parse::<u32>() {
+                // A run traces at least the samples its image holds.
+                Ok(t) if t >= spp => Some(t),
+                _ => {
+                    return Err(format!(
+                        "bad traced_spp in '{l}' (an integer ≥ spp expected)"
+                    ));
+                }
+            },
+        };
         Ok(CostRow {
             method: f[0].to_string(),
             run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
@@ -55,7 +88,8 @@ pub fn parse_cost_csv(text: &str) -> Result<Vec<CostRow>, String> {
             } else {
                 Some(num(f[3])?)
             },
-            spp: f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?,
+            spp,
+            traced_spp,
         })
     })
 }
@@ -69,6 +103,8 @@ pub struct MethodCost {
     /// set different runs against each other.
     pub mean_cpu_seconds: Option<f64>,
     pub mean_spp: f64,
+    /// `None` when any run lacks its traced count.
+    pub mean_traced_spp: Option<f64>,
 }
 
 impl MethodCost {
@@ -84,6 +120,15 @@ impl MethodCost {
             .filter(|&c| c > 0.0)
             .map(|c| self.mean_spp / c)
     }
+
+    /// Traced samples per CPU second: the cost per sample whatever the
+    /// image kept.
+    pub fn traced_spp_per_cpu_second(&self) -> Option<f64> {
+        match (self.mean_traced_spp, self.mean_cpu_seconds) {
+            (Some(t), Some(c)) if c > 0.0 => Some(t / c),
+            _ => None,
+        }
+    }
 }
 
 /// Each method's totals, in `methods`' order (methods without rows are
@@ -98,11 +143,14 @@ pub fn method_costs(rows: &[CostRow], methods: &[String]) -> Vec<MethodCost> {
             }
             let n = own.len() as f64;
             let cpu: Option<Vec<f64>> = own.iter().map(|r| r.cpu_seconds).collect();
+            let traced: Option<Vec<f64>> =
+                own.iter().map(|r| r.traced_spp.map(f64::from)).collect();
             Some(MethodCost {
                 method: m.clone(),
                 mean_seconds: own.iter().map(|r| r.seconds).sum::<f64>() / n,
                 mean_cpu_seconds: cpu.map(|c| c.iter().sum::<f64>() / n),
                 mean_spp: own.iter().map(|r| r.spp as f64).sum::<f64>() / n,
+                mean_traced_spp: traced.map(|t| t.iter().sum::<f64>() / n),
             })
         })
         .collect()
@@ -201,6 +249,53 @@ pub fn cost_section(
             handed_over.join(", ")
         );
     }
+    s.push_str(&traced_table(rows, &costs, base));
+    s
+}
+
+/// Where some run left traced passes out of its image: every method's
+/// traced samples per CPU second and their ratio to `base`'s, the cost per
+/// sample that the image's spp no longer gives. Empty otherwise.
+fn traced_table(rows: &[CostRow], costs: &[MethodCost], base: &MethodCost) -> String {
+    if !rows.iter().any(|r| r.traced_spp.is_some_and(|t| t > r.spp)) {
+        return String::new();
+    }
+    let opt = |x: Option<f64>, digits: usize| x.map_or("—".into(), |v| format!("{v:.digits$}"));
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "
+Counting every sample each run traced, its image's and those it left out (`traced_spp`),          the cost per sample is:
+"
+    );
+    let _ = writeln!(
+        s,
+        "| method | traced spp | traced spp per CPU s | traced spp per CPU s ratio |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|");
+    let base_rate = base.traced_spp_per_cpu_second();
+    for c in costs {
+        let rate = c.traced_spp_per_cpu_second();
+        let ratio = match (rate, base_rate) {
+            (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+            _ => None,
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            c.method,
+            opt(c.mean_traced_spp, 1),
+            opt(rate, 3),
+            opt(ratio, 3)
+        );
+    }
+    if costs.iter().any(|c| c.mean_traced_spp.is_none()) {
+        let _ = writeln!(
+            s,
+            "
+— : a run of that method predates `traced_spp` (or lacks its CPU time)."
+        );
+    }
     s
 }
 
@@ -238,23 +333,76 @@ mod tests {
             seconds,
             cpu_seconds: cpu,
             spp,
+            traced_spp: Some(spp),
         }
     }
 
     #[test]
     fn csv_round_trips_and_rejects_bad_values() {
-        let rows = vec![
+        let mut rows = vec![
             row("pt", 0, 10.0, Some(6.5), 100),
             row("radiance", 0, 10.25, None, 80),
+            row("product", 0, 10.0, Some(6.0), 40),
         ];
+        rows[1].traced_spp = Some(95);
+        rows[2].traced_spp = None;
         assert_eq!(parse_cost_csv(&to_cost_csv(&rows)).unwrap(), rows);
         assert!(parse_cost_csv("method,run\n").is_err());
         for bad in ["nan", "inf", "-1", "x"] {
-            let text = format!("{COST_CSV_HEADER}\npt,0,1.0,{bad},4\n");
+            let text = format!("{COST_CSV_HEADER}\npt,0,1.0,{bad},4,4\n");
             assert!(parse_cost_csv(&text).unwrap_err().contains(bad), "{bad}");
         }
-        let short = format!("{COST_CSV_HEADER}\npt,0,1.0,4\n");
+        let short = format!("{COST_CSV_HEADER}\npt,0,1.0,4,4\n");
         assert!(parse_cost_csv(&short).is_err());
+        // A run cannot trace fewer samples than its image holds.
+        for bad in ["3", "-5", "4.5", "x"] {
+            let text = format!("{COST_CSV_HEADER}\npt,0,1.0,1.0,4,{bad}\n");
+            let err = parse_cost_csv(&text).unwrap_err();
+            assert!(err.contains("traced_spp"), "{bad}: {err}");
+        }
+        // Files written before the column parse, without traced counts; a
+        // row of the old width under the new header does not.
+        let old = "method,run,seconds,cpu_seconds,spp\npt,0,1.0,0.5,4\n";
+        let parsed = parse_cost_csv(old).unwrap();
+        assert_eq!(parsed[0].traced_spp, None);
+        assert_eq!(parsed[0].spp, 4);
+        assert!(parse_cost_csv(&format!("{COST_CSV_HEADER}\npt,0,1.0,0.5,4\n")).is_err());
+    }
+
+    /// Only where a run left passes out of its image does the section add
+    /// the traced table, with each method's traced rate and its ratio to
+    /// radiance's; methods without traced counts get dashes.
+    #[test]
+    fn traced_samples_give_the_cost_per_sample_of_runs_that_left_passes_out() {
+        let methods: Vec<String> = ["pt", "radiance", "product"].map(String::from).to_vec();
+        let mut rows = vec![
+            row("pt", 0, 10.0, Some(5.0), 100),
+            row("radiance", 0, 10.0, Some(5.0), 40),
+            row("product", 0, 10.0, Some(4.0), 30),
+        ];
+        let plain = cost_section(&rows, &methods, TimeBase::Cpu, &[]);
+        assert!(!plain.contains("traced"), "{plain}");
+        // The product traced 36 spp and kept 30: 9 traced spp per CPU s
+        // against radiance's 8.
+        rows[2].traced_spp = Some(36);
+        let section = cost_section(&rows, &methods, TimeBase::Cpu, &[]);
+        assert!(
+            section.contains("| product | 36.0 | 9.000 | 1.125 |"),
+            "{section}"
+        );
+        assert!(
+            section.contains("| radiance | 40.0 | 8.000 | 1.000 |"),
+            "{section}"
+        );
+        assert!(
+            section.contains("| pt | 100.0 | 20.000 | 2.500 |"),
+            "{section}"
+        );
+        assert!(!section.contains("predates"));
+        rows[0].traced_spp = None;
+        let mixed = cost_section(&rows, &methods, TimeBase::Cpu, &[]);
+        assert!(mixed.contains("| pt | — | — | — |"), "{mixed}");
+        assert!(mixed.contains("predates `traced_spp`"), "{mixed}");
     }
 
     #[test]

@@ -377,7 +377,8 @@ fn pooled_summary(
             String::new()
         } else {
             format!(
-                "`{COST_CSV}` (the wall and CPU seconds and spp of every run that recorded them), "
+                "`{COST_CSV}` (the wall and CPU seconds, image spp and traced spp of every run that \
+                 recorded them), "
             )
         }
     );
