@@ -428,7 +428,7 @@ fn render_unguided(
             Budget::Seconds(_) => None,
         };
         let n = pacer.next_call(start, passes_left, deadline, snapshots);
-        let (c, _) = render_passes_into(
+        let c = render_passes_into(
             scene,
             &NoGuide,
             &opts.path,
@@ -436,6 +436,7 @@ fn render_unguided(
             pass..pass + n,
             None,
             &mut film,
+            &mut Vec::new(),
         );
         counters.add(&c);
         pass += n;

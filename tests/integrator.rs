@@ -280,3 +280,55 @@ fn the_first_vertex_to_guide_is_never_on_a_surface_that_reflects_nothing() {
     // 64 × 64 image; the floor the rest.
     assert!(on_sphere > 20 && on_sphere < w * h / 2, "{on_sphere}");
 }
+
+/// A caller that keeps its record buffers across calls (the trainer) gets
+/// the records a fresh set would hold: stale records are dropped, surplus
+/// buffers removed, and the film and counters do not depend on the reuse.
+#[test]
+fn reused_record_buffers_hold_exactly_the_calls_records() {
+    use ltcguide::film::image::Film;
+    use ltcguide::guiding::guide::{RadianceModel, SdGuide};
+    use ltcguide::guiding::quadtree::QuadTree;
+    use ltcguide::guiding::record::RecordBuffer;
+    use ltcguide::guiding::sdtree::{SdTree, SdTreeConfig};
+    use ltcguide::integrator::render_passes_into;
+
+    let scene = load_scene(&data("analytic/sphere_over_plane.xml")).unwrap();
+    let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, SdTreeConfig::default());
+    tree.leaves_mut()[0].sampling = QuadTree::uniform(1.0);
+    let guide = SdGuide {
+        tree: &tree,
+        model: &RadianceModel,
+        learning: true,
+        fixed_alpha: Some(0.5),
+    };
+    let settings = PathSettings {
+        nee: false,
+        max_depth: Some(3),
+        roulette: RouletteMode::Classic,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    };
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let call = |passes: std::ops::Range<u64>, buffers: &mut Vec<RecordBuffer>| {
+        let mut film = Film::new(w, h);
+        let counters = render_passes_into(
+            &scene, &guide, &settings, 9, passes, None, &mut film, buffers,
+        );
+        (film.image().pixels, counters.paths, counters.rays)
+    };
+    let mut fresh = Vec::new();
+    let fresh_out = call(2..4, &mut fresh);
+    let records: usize = fresh.iter().map(|b| b.records.len()).sum();
+    assert!(records > 0, "the call recorded nothing");
+    // The same buffers after a larger call, with a stale buffer appended.
+    let mut reused = Vec::new();
+    call(0..6, &mut reused);
+    let blocks = reused.len();
+    reused.push(fresh[0].clone());
+    let reused_out = call(2..4, &mut reused);
+    assert_eq!(reused.len(), blocks);
+    assert_eq!(fresh_out, reused_out);
+    let as_records =
+        |b: &[RecordBuffer]| -> Vec<Vec<_>> { b.iter().map(|b| b.records.clone()).collect() };
+    assert_eq!(as_records(&fresh), as_records(&reused));
+}

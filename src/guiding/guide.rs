@@ -196,6 +196,10 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         RecordBuffer::default()
     }
 
+    fn clear_recorder(&self, recorder: &mut RecordBuffer) {
+        recorder.clear();
+    }
+
     fn learning(&self) -> bool {
         self.learning
     }

@@ -8,7 +8,7 @@
 use super::combine::{combine, combine_counting, iteration_variance, pooled_mean};
 use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
-use super::record::{RecordStats, passes_within_record_budget, record_pass};
+use super::record::{RecordBuffer, RecordStats, passes_within_record_budget, record_pass};
 use super::schedule::{
     Budget as ScheduleBudget, IterationReport, Schedule, Step, TrainingEnd, TrainingStop,
 };
@@ -140,6 +140,9 @@ pub fn render_guided<M: WeightModel>(
     let mut records = RecordStats::default();
     // Records a training pass produced in the last training call.
     let mut records_per_pass: Option<f64> = None;
+    // The training calls' record buffers, one per row block, kept from call
+    // to call so that their memory is reused (`render_passes_into`).
+    let mut record_buffers: Vec<RecordBuffer> = Vec::new();
     let mut pass = 0u64;
     // Set when the strategy trial measured path tracing more efficient.
     let mut fallback = String::new();
@@ -257,6 +260,10 @@ pub fn render_guided<M: WeightModel>(
                     learning: training,
                     fixed_alpha: opts.bsdf_fraction,
                 };
+                if !training {
+                    // No more records: the buffers' memory goes back.
+                    record_buffers = Vec::new();
+                }
                 let out = render_passes(
                     scene,
                     &guide,
@@ -264,11 +271,12 @@ pub fn render_guided<M: WeightModel>(
                     opts.seed,
                     passes,
                     pixel_estimates.as_deref(),
+                    &mut record_buffers,
                 );
                 let render_seconds = clock.seconds() - call_start;
                 counters.add(&out.counters);
                 if training {
-                    let call_records = record_pass(&mut tree, &out.recorders);
+                    let call_records = record_pass(&mut tree, &record_buffers);
                     records_per_pass = Some(call_records.total() as f64 / n as f64);
                     records.merge(&call_records);
                 }
@@ -282,7 +290,15 @@ pub fn render_guided<M: WeightModel>(
                     adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
                     ..opts.path
                 };
-                let out = render_passes(scene, &NoGuide, &unguided, opts.seed, passes, None);
+                let out = render_passes(
+                    scene,
+                    &NoGuide,
+                    &unguided,
+                    opts.seed,
+                    passes,
+                    None,
+                    &mut Vec::new(),
+                );
                 counters.add(&out.counters);
                 (out.film, clock.seconds() - call_start)
             };

@@ -113,6 +113,11 @@ pub trait Guide: Sync {
 
     fn new_recorder(&self) -> Self::Recorder;
 
+    /// Empties `recorder` for another call, keeping its memory: a buffer
+    /// grown anew every call faulted in fresh pages, which the kernel
+    /// zeroes (staircase, 150 s: 3.5 % of a product run's time).
+    fn clear_recorder(&self, recorder: &mut Self::Recorder);
+
     /// True while the guide is learning and wants finished paths.
     fn learning(&self) -> bool;
 
@@ -156,6 +161,8 @@ impl Guide for NoGuide {
     }
 
     fn new_recorder(&self) {}
+
+    fn clear_recorder(&self, _recorder: &mut ()) {}
 
     fn learning(&self) -> bool {
         false

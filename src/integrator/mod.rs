@@ -22,11 +22,9 @@ use stats::RenderCounters;
 const ROWS_PER_BLOCK: usize = 4;
 
 /// The result of rendering some passes.
-pub struct PassOutput<R> {
+pub struct PassOutput {
     pub film: Film,
     pub counters: RenderCounters,
-    /// Learning records, one buffer per row block, in image order.
-    pub recorders: Vec<R>,
 }
 
 /// Mixes a seed and a pass index into a stream seed (SplitMix64 finaliser).
@@ -38,8 +36,8 @@ fn pass_seed(seed: u64, pass: u64) -> u64 {
 }
 
 /// Renders the passes `passes` (1 spp each over the image, pixel-major, see
-/// [`render_passes_into`]) into a film of their own. Must run inside the
-/// caller's rayon pool.
+/// [`render_passes_into`]) into a film of their own, and the learning
+/// records into `recorders`. Must run inside the caller's rayon pool.
 pub fn render_passes<G: Guide>(
     scene: &Scene,
     guide: &G,
@@ -47,9 +45,10 @@ pub fn render_passes<G: Guide>(
     seed: u64,
     passes: std::ops::Range<u64>,
     pixel_estimates: Option<&[f32]>,
-) -> PassOutput<G::Recorder> {
+    recorders: &mut Vec<G::Recorder>,
+) -> PassOutput {
     let mut film = Film::new(scene.camera.width, scene.camera.height);
-    let (counters, recorders) = render_passes_into(
+    let counters = render_passes_into(
         scene,
         guide,
         settings,
@@ -57,12 +56,9 @@ pub fn render_passes<G: Guide>(
         passes,
         pixel_estimates,
         &mut film,
-    );
-    PassOutput {
-        film,
-        counters,
         recorders,
-    }
+    );
+    PassOutput { film, counters }
 }
 
 /// Renders the passes `passes` and adds them straight into `film`. Each
@@ -75,6 +71,11 @@ pub fn render_passes<G: Guide>(
 /// them by the next pass. Every sample keeps its pass's random stream and
 /// the film adds the passes in order, so the image is the same as from
 /// one pass at a time.
+///
+/// `recorders` ends with one buffer of learning records per row block, in
+/// image order. Its buffers are emptied and refilled rather than made
+/// anew, so that a caller that keeps them across calls reuses their memory.
+#[allow(clippy::too_many_arguments)]
 pub fn render_passes_into<G: Guide>(
     scene: &Scene,
     guide: &G,
@@ -83,21 +84,26 @@ pub fn render_passes_into<G: Guide>(
     passes: std::ops::Range<u64>,
     pixel_estimates: Option<&[f32]>,
     film: &mut Film,
-) -> (RenderCounters, Vec<G::Recorder>) {
+    recorders: &mut Vec<G::Recorder>,
+) -> RenderCounters {
     let (w, h) = (scene.camera.width, scene.camera.height);
     assert_eq!((film.width, film.height), (w, h), "film and camera differ");
     let stream_seeds: Vec<u64> = passes.clone().map(|p| pass_seed(seed, p)).collect();
     let block_len = ROWS_PER_BLOCK * w;
-    let results: Vec<(RenderCounters, G::Recorder)> = film
+    let blocks = film.sum.len().div_ceil(block_len);
+    recorders.truncate(blocks);
+    recorders.resize_with(blocks, || guide.new_recorder());
+    let results: Vec<RenderCounters> = film
         .sum
         .par_chunks_mut(block_len)
         .zip(film.sum_sq.par_chunks_mut(block_len))
+        .zip(recorders.par_iter_mut())
         .enumerate()
         .map_init(
             || (PathScratch::default(), G::Cache::default()),
-            |(scratch, cache), (block, (sum, sum_sq))| {
+            |(scratch, cache), (block, ((sum, sum_sq), recorder))| {
                 let mut counters = RenderCounters::default();
-                let mut recorder = guide.new_recorder();
+                guide.clear_recorder(recorder);
                 for (k, (s, q)) in sum.iter_mut().zip(sum_sq.iter_mut()).enumerate() {
                     let index = block * block_len + k;
                     let (x, y) = (index % w, index / w);
@@ -115,7 +121,7 @@ pub fn render_passes_into<G: Guide>(
                             &mut rng,
                             &mut counters,
                             scratch,
-                            &mut recorder,
+                            recorder,
                             cache,
                             pixel_estimates.map_or(0.0, |e| e[index]),
                         );
@@ -125,18 +131,16 @@ pub fn render_passes_into<G: Guide>(
                 // The block's pixels share the cache in their fixed order;
                 // it is forgotten before the worker takes another block.
                 cache.end_block(&mut counters);
-                (counters, recorder)
+                counters
             },
         )
         .collect();
     film.spp += stream_seeds.len() as u32;
     let mut counters = RenderCounters::default();
-    let mut recorders = Vec::with_capacity(results.len());
-    for (c, r) in results {
-        counters.add(&c);
-        recorders.push(r);
+    for c in &results {
+        counters.add(c);
     }
-    (counters, recorders)
+    counters
 }
 
 /// Builds the thread pool a render runs in (0 = all cores).
