@@ -114,8 +114,10 @@ pub trait Guide: Sync {
     fn new_recorder(&self) -> Self::Recorder;
 
     /// Empties `recorder` for another call, keeping its memory: a buffer
-    /// grown anew every call faulted in fresh pages, which the kernel
-    /// zeroes (staircase, 150 s: 3.5 % of a product run's time).
+    /// grown anew every call faults in fresh pages for the kernel to zero,
+    /// one kept does so only when a call outgrows it (staircase, 150 CPU s:
+    /// peak memory 1.7–2.4 GB before, 1.7–1.8 GB after; speed unchanged
+    /// within noise).
     fn clear_recorder(&self, recorder: &mut Self::Recorder);
 
     /// True while the guide is learning and wants finished paths.
