@@ -5,10 +5,12 @@
 
 use super::colormap::log_scale_rgb;
 use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
-use super::curves::{
-    CurveRow, MeanCurve, mean_curve, mean_std, parse_csv, run_numbers, time_to_error, to_csv,
-};
+use super::curves::{CurveRow, MeanCurve, mean_curve, parse_csv, to_csv};
 use super::plot::curves_svg;
+use super::summary_text::{
+    PLAN_HEADING, SUMMARY_TITLE_SUFFIX, budget_phrase, curves_title, final_errors_table,
+    runs_phrase, speedup_section, time_axis_label,
+};
 use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
 use crate::film::metrics::{mae, relmse};
@@ -455,157 +457,5 @@ fn summary_markdown(
          seconds, its image's spp and the spp it traced), `curves.svg`, `<method>.exr/png` (first run), \
          `<method>-error.png` (|I − R|/(R + 0.01), log scale 1e-3…10)."
     );
-    s
-}
-
-/// The opening of a summary's budget line, which names the time base:
-/// `merge` pools only sources whose budget lines agree.
-pub fn budget_phrase(seconds: f64, base: TimeBase) -> String {
-    match base {
-        TimeBase::Wall => format!("Budget {seconds:.1} s per run"),
-        TimeBase::Cpu => format!("Budget {seconds:.1} {CPU_BUDGET_UNIT} per run"),
-    }
-}
-
-const CPU_BUDGET_UNIT: &str = "CPU s per thread";
-
-/// The time base a summary's budget line names (wall unless it says CPU).
-pub fn summary_time_base(summary: &str) -> TimeBase {
-    let budget = summary.lines().find(|l| l.starts_with("Budget "));
-    match budget {
-        Some(l) if l.contains(CPU_BUDGET_UNIT) => TimeBase::Cpu,
-        _ => TimeBase::Wall,
-    }
-}
-
-/// The items ("- …" lines) of a summary's section under `heading`, up to the
-/// next section or the closing "Files:" line.
-pub fn summary_items(summary: &str, heading: &str) -> Vec<String> {
-    summary
-        .lines()
-        .skip_while(|l| !l.starts_with(heading))
-        .skip(1)
-        .take_while(|l| !l.starts_with("## ") && !l.starts_with("Files:"))
-        .filter_map(|l| l.strip_prefix("- ").map(str::to_string))
-        .collect()
-}
-
-/// Heading of a summary's section listing every run's plan line.
-pub const PLAN_HEADING: &str = "## Per-scene plan";
-
-/// The curves' time axis.
-pub fn time_axis_label(base: TimeBase) -> &'static str {
-    match base {
-        TimeBase::Wall => "seconds (training included)",
-        TimeBase::Cpu => "CPU seconds per thread (training included)",
-    }
-}
-
-/// The seeds of runs `runs` (increasing): a range where they are
-/// consecutive, else each of them.
-pub fn seeds_phrase(runs: &[u32]) -> String {
-    let seeds: Vec<u64> = runs.iter().map(|&r| run_seed(r)).collect();
-    match seeds.as_slice() {
-        [] => String::from("none"),
-        [one] => one.to_string(),
-        [first, .., last] if last - first + 1 == seeds.len() as u64 => format!("{first}–{last}"),
-        _ => seeds
-            .iter()
-            .map(u64::to_string)
-            .collect::<Vec<_>>()
-            .join(", "),
-    }
-}
-
-/// "N runs per method (seeds …)" for the runs the rows hold.
-pub fn runs_phrase(rows: &[CurveRow]) -> String {
-    let runs = run_numbers(rows);
-    format!(
-        "{} runs per method (seeds {})",
-        runs.len(),
-        seeds_phrase(&runs)
-    )
-}
-
-/// The table of final errors: per method, the mean spp and the mean and
-/// standard deviation over its runs of their last rows' relMSE and MAE.
-pub fn final_errors_table(rows: &[CurveRow], curves: &[MeanCurve]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|");
-    let runs = run_numbers(rows);
-    for c in curves {
-        let finals: Vec<&CurveRow> = runs
-            .iter()
-            .filter_map(|&run| rows.iter().rfind(|r| r.method == c.method && r.run == run))
-            .collect();
-        let (rm, rs) = mean_std(&finals.iter().map(|r| r.relmse).collect::<Vec<_>>());
-        let (mm, ms) = mean_std(&finals.iter().map(|r| r.mae).collect::<Vec<_>>());
-        let spp = finals.iter().map(|r| r.spp as f64).sum::<f64>() / finals.len().max(1) as f64;
-        let _ = writeln!(
-            s,
-            "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |",
-            c.method, spp, rm, rs, mm, ms
-        );
-    }
-    s
-}
-
-/// What follows the scene's name in the summary's first line, "# NAME…"
-/// (`replot` reads the name back from it).
-pub const SUMMARY_TITLE_SUFFIX: &str = ": equal-time comparison";
-
-/// Title of `curves.svg` for `runs` runs on `scene`.
-pub fn curves_title(scene: &str, runs: usize) -> String {
-    format!("{scene} — error vs time ({runs} runs)")
-}
-
-/// Heading of the summary's time-to-error section (`replot` finds it by it).
-pub const SPEEDUP_HEADING: &str = "## Time-to-error speedup relative to `radiance`";
-
-/// The summary's time-to-error section: how much sooner each mean curve
-/// reaches `radiance`'s final mean error. Empty without a radiance curve.
-pub fn speedup_section(curves: &[MeanCurve]) -> String {
-    let mut s = String::new();
-    if let Some(base) = curves.iter().find(|c| c.method == "radiance") {
-        let _ = writeln!(s, "\n{SPEEDUP_HEADING}\n");
-        let _ = writeln!(
-            s,
-            "How much sooner each method's mean curve reaches the final mean error of `radiance` \
-             and stays at or below it (ratio of times; > 1 means faster; — means it does not end \
-             there within the budget). The mean curves average the runs at common times.\n"
-        );
-        let _ = writeln!(s, "| method | relMSE | MAE |");
-        let _ = writeln!(s, "|---|---|---|");
-        let target = |pick: fn(&MeanCurve) -> &Vec<(f64, f64)>| -> Option<(f64, f64)> {
-            let errs: Vec<f64> = pick(base).iter().map(|e| e.0).collect();
-            let t_base = *base.seconds.last()?;
-            Some((*errs.last()?, t_base))
-        };
-        for c in curves {
-            let cell = |pick: fn(&MeanCurve) -> &Vec<(f64, f64)>| -> String {
-                match target(pick) {
-                    Some((err, t_base)) => {
-                        let errs: Vec<f64> = pick(c).iter().map(|e| e.0).collect();
-                        match time_to_error(&c.seconds, &errs, err) {
-                            Some(t) => format!("{:.2}×", t_base / t),
-                            None => "—".into(),
-                        }
-                    }
-                    None => "—".into(),
-                }
-            };
-            let _ = writeln!(
-                s,
-                "| {} | {} | {} |",
-                c.method,
-                cell(|c| &c.relmse),
-                cell(|c| &c.mae)
-            );
-        }
-    }
     s
 }

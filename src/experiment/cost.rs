@@ -9,8 +9,8 @@
 //! CPU second (its own cost per sample). `curves.csv` holds wall-clock time
 //! alone and cannot tell the two apart; this file can.
 
-use super::compare::seeds_phrase;
 use super::curves::{non_negative_field, parse_records};
+use super::summary_text::seeds_phrase;
 use crate::guiding::trial::FALLBACK_IMAGE;
 use crate::render::TimeBase;
 use std::fmt::Write;

@@ -9,10 +9,7 @@
 //! methods and path settings, and no run (seed) twice. Anything else is
 //! refused before a file is written.
 
-use super::compare::{
-    PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, run_seed, runs_phrase,
-    seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
-};
+use super::compare::run_seed;
 use super::cost::{
     COST_CSV, CostRow, cost_coverage_note, cost_section, parse_cost_csv, to_cost_csv,
 };
@@ -20,6 +17,10 @@ use super::curves::{
     CurveRow, MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers, to_csv,
 };
 use super::plot::curves_svg;
+use super::summary_text::{
+    PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, runs_phrase,
+    seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
+};
 use crate::film::write_atomic;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};

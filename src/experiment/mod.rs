@@ -12,3 +12,4 @@ pub mod merge;
 pub mod pixel_classes;
 pub mod plot;
 pub mod replot;
+pub mod summary_text;

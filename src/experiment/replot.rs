@@ -4,13 +4,13 @@
 //! recomputed from it: pages made before the aggregation was fixed are
 //! corrected this way rather than by hours of new renders.
 
-use super::compare::{
-    PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section,
-    summary_items, summary_time_base, time_axis_label,
-};
 use super::cost::{COST_CSV, COST_HEADING, cost_coverage_note, cost_section, parse_cost_csv};
 use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
 use super::plot::curves_svg;
+use super::summary_text::{
+    PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section,
+    summary_items, summary_time_base, time_axis_label,
+};
 use crate::film::write_atomic;
 use std::path::Path;
 
