@@ -203,23 +203,18 @@ pub fn cost_section(
         "| method | wall s | CPU s | cores used | spp per CPU s | spp ratio | CPU ratio | spp per CPU s ratio |"
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
-    let opt = |x: Option<f64>, digits: usize| x.map_or("—".into(), |v| format!("{v:.digits$}"));
-    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
-        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-        _ => None,
-    };
     for c in &costs {
         let _ = writeln!(
             s,
             "| {} | {:.1} | {} | {} | {} | {} | {} | {} |",
             c.method,
             c.mean_seconds,
-            opt(c.mean_cpu_seconds, 1),
-            opt(c.cores_used(), 2),
-            opt(c.spp_per_cpu_second(), 3),
-            opt(ratio(Some(c.mean_spp), Some(base.mean_spp)), 3),
-            opt(ratio(c.mean_cpu_seconds, base.mean_cpu_seconds), 3),
-            opt(ratio(c.spp_per_cpu_second(), base.spp_per_cpu_second()), 3),
+            optional(c.mean_cpu_seconds, 1),
+            optional(c.cores_used(), 2),
+            optional(c.spp_per_cpu_second(), 3),
+            optional(ratio(Some(c.mean_spp), Some(base.mean_spp)), 3),
+            optional(ratio(c.mean_cpu_seconds, base.mean_cpu_seconds), 3),
+            optional(ratio(c.spp_per_cpu_second(), base.spp_per_cpu_second()), 3),
         );
     }
     if costs.iter().any(|c| c.mean_cpu_seconds.is_none()) {
@@ -260,43 +255,48 @@ fn traced_table(rows: &[CostRow], costs: &[MethodCost], base: &MethodCost) -> St
     if !rows.iter().any(|r| r.traced_spp.is_some_and(|t| t > r.spp)) {
         return String::new();
     }
-    let opt = |x: Option<f64>, digits: usize| x.map_or("—".into(), |v| format!("{v:.digits$}"));
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "
-Counting every sample each run traced, its image's and those it left out (`traced_spp`),          the cost per sample is:
-"
+        "\nCounting every sample each run traced, its image's and those it left out \
+         (`traced_spp`), the cost per sample is:\n"
     );
     let _ = writeln!(
         s,
         "| method | traced spp | traced spp per CPU s | traced spp per CPU s ratio |"
     );
     let _ = writeln!(s, "|---|---|---|---|");
-    let base_rate = base.traced_spp_per_cpu_second();
     for c in costs {
         let rate = c.traced_spp_per_cpu_second();
-        let ratio = match (rate, base_rate) {
-            (Some(a), Some(b)) if b > 0.0 => Some(a / b),
-            _ => None,
-        };
         let _ = writeln!(
             s,
             "| {} | {} | {} | {} |",
             c.method,
-            opt(c.mean_traced_spp, 1),
-            opt(rate, 3),
-            opt(ratio, 3)
+            optional(c.mean_traced_spp, 1),
+            optional(rate, 3),
+            optional(ratio(rate, base.traced_spp_per_cpu_second()), 3)
         );
     }
     if costs.iter().any(|c| c.mean_traced_spp.is_none()) {
         let _ = writeln!(
             s,
-            "
-— : a run of that method predates `traced_spp` (or lacks its CPU time)."
+            "\n— : a run of that method predates `traced_spp` (or lacks its CPU time)."
         );
     }
     s
+}
+
+/// A table cell: the value to `digits` decimals, or a dash.
+fn optional(x: Option<f64>, digits: usize) -> String {
+    x.map_or("—".into(), |v| format!("{v:.digits$}"))
+}
+
+/// a / b where both are known and b > 0.
+fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+        _ => None,
+    }
 }
 
 /// Where `costs` hold fewer runs than the comparison (`all_runs`, the runs
@@ -398,11 +398,23 @@ mod tests {
             section.contains("| pt | 100.0 | 20.000 | 2.500 |"),
             "{section}"
         );
+        assert!(
+            section.contains(
+                "\n\nCounting every sample each run traced, its image's and those it left out \
+                 (`traced_spp`), the cost per sample is:\n\n| method | traced spp |"
+            ),
+            "{section}"
+        );
         assert!(!section.contains("predates"));
         rows[0].traced_spp = None;
         let mixed = cost_section(&rows, &methods, TimeBase::Cpu, &[]);
         assert!(mixed.contains("| pt | — | — | — |"), "{mixed}");
-        assert!(mixed.contains("predates `traced_spp`"), "{mixed}");
+        assert!(
+            mixed.ends_with(
+                "|\n\n— : a run of that method predates `traced_spp` (or lacks its CPU time).\n"
+            ),
+            "{mixed}"
+        );
     }
 
     #[test]
