@@ -116,18 +116,13 @@ impl MethodCost {
     /// Samples per CPU second: total samples over total CPU time, so that
     /// spp ratio = CPU ratio × this ratio holds exactly between methods.
     pub fn spp_per_cpu_second(&self) -> Option<f64> {
-        self.mean_cpu_seconds
-            .filter(|&c| c > 0.0)
-            .map(|c| self.mean_spp / c)
+        ratio(Some(self.mean_spp), self.mean_cpu_seconds)
     }
 
     /// Traced samples per CPU second: the cost per sample whatever the
     /// image kept.
     pub fn traced_spp_per_cpu_second(&self) -> Option<f64> {
-        match (self.mean_traced_spp, self.mean_cpu_seconds) {
-            (Some(t), Some(c)) if c > 0.0 => Some(t / c),
-            _ => None,
-        }
+        ratio(self.mean_traced_spp, self.mean_cpu_seconds)
     }
 }
 
