@@ -157,6 +157,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
         id
     }
 
+    #[inline]
     fn vertex<'a>(
         &'a self,
         ctx: &VertexContext,

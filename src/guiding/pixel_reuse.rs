@@ -134,7 +134,7 @@ impl LobeSlot {
 
     /// The weights built here; `None`: sample the BSDF.
     pub fn weights(&mut self) -> Option<ProductWeights<'_>> {
-        match self.built {
+        match &self.built {
             Built::Vanishes => None,
             Built::RadianceOnly { albedo } => Some(ProductWeights::RadianceOnly {
                 albedo: Some(albedo),
@@ -258,7 +258,7 @@ mod tests {
                 slot.set_radiance_only(builds as f32);
             });
             match slot.weights() {
-                Some(ProductWeights::RadianceOnly { albedo: Some(a) }) => a,
+                Some(ProductWeights::RadianceOnly { albedo: Some(a) }) => *a,
                 _ => unreachable!(),
             }
         };

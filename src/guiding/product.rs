@@ -231,8 +231,14 @@ pub enum ProductWeights<'a> {
     /// `None` where none was: the adjoint then takes the BSDF's estimate,
     /// computed only where roulette reads it (as radiance guiding does),
     /// not at every radiance-weighted vertex.
+    ///
+    /// A reference into the worker's lobe slot rather than the value, so
+    /// that both variants hold one pointer and the weights travel in two
+    /// registers. With an `Option<f32>` here the enum was returned through
+    /// memory, and the path loop reloaded it in wider pieces than it had
+    /// been stored in: a store-forwarding stall at every vertex.
     RadianceOnly {
-        albedo: Option<f32>,
+        albedo: Option<&'a f32>,
     },
 }
 
@@ -358,7 +364,9 @@ impl WeightModel for ProductModel<'_> {
         match weights {
             ProductWeights::Product(_) => root_total,
             ProductWeights::RadianceOnly { albedo } => {
-                let albedo = albedo.unwrap_or_else(|| ctx.bsdf.albedo_estimate(ctx.wo_local));
+                let albedo = albedo
+                    .copied()
+                    .unwrap_or_else(|| ctx.bsdf.albedo_estimate(ctx.wo_local));
                 reflected_radiance_estimate(ctx.frame, ctx.wo_local, albedo, root_radiance)
             }
         }
