@@ -8,12 +8,13 @@ use glam::{Vec2, Vec3};
 use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
 use ltcguide::directional::{Cell, dir_to_square, square_to_dir};
 use ltcguide::guiding::descent::{self, ChildWeights};
-use ltcguide::guiding::guide::WeightModel;
+use ltcguide::guiding::guide::{WeightModel, reflected_radiance_estimate};
 use ltcguide::guiding::product::{
     CosineLobes, ProductCache, ProductModel, ProductWeights, guiding_ltc_options,
 };
 use ltcguide::guiding::quadtree::{QuadNode, QuadTree};
 use ltcguide::integrator::guide::VertexContext;
+use ltcguide::ltc::children::ShadingLtc;
 use ltcguide::ltc::table::LtcTable;
 use ltcguide::ltc::{LtcOptions, ProductKernel};
 use ltcguide::math::Frame;
@@ -523,6 +524,61 @@ fn product_samples_gather_about_the_world_mirror_direction() {
             // direction; a lobe turned by 30° about the normal gives 0.96.
             assert!(cos > 0.995, "normal {normal}, φ_o {phi}: cos {cos}");
         }
+    }
+}
+
+/// Where the product falls back to radiance weights, ADRRS's adjoint is
+/// the albedo times the root's cosine-weighted radiance. At a grazing
+/// glossy vertex (beyond the 85° switch) the albedo is the LTC's, built
+/// with the lobe; at a diffuse vertex, where no lobe is built, it is the
+/// BSDF's own estimate. The two differ here (GGX at α = 0.1 and 88°
+/// shadows part of its light), so the test tells them apart.
+#[test]
+fn the_radiance_fallbacks_adjoint_takes_the_albedo_that_was_built() {
+    let table = default_ltc_table().unwrap();
+    let model = ProductModel {
+        cosine_lobes: CosineLobes::Radiance,
+        ..render_options_model(table)
+    };
+    let normal = Vec3::new(0.3, 0.2, 0.9).normalize();
+    let frame = Frame::from_normal(normal);
+    let root_radiance = [0.7, 1.3, 0.2, 2.1];
+    let root_total = 123.0; // Ignored by the radiance fallback.
+    for (alpha, diffuse, theta_o_deg) in [(0.1, false, 88.0), (1.0, true, 30.0)] {
+        let bsdf = material(alpha, diffuse).at(Vec2::ZERO);
+        let wo = wo_at(theta_o_deg, 0.4);
+        let ctx = VertexContext {
+            p: Vec3::ZERO,
+            ng: normal,
+            frame: &frame,
+            wo_local: wo,
+            bsdf: &bsdf,
+            needs_adjoint: true,
+            vertex_index: 0,
+        };
+        let mut cache = ProductCache::default();
+        let w = model.weights(&ctx, &mut cache).expect("a reflective BSDF");
+        let ProductWeights::RadianceOnly { albedo } = &w else {
+            panic!("α {alpha}, θ_o {theta_o_deg}°: radiance weights expected");
+        };
+        let bsdf_albedo = bsdf.albedo_estimate(wo);
+        let expected_albedo = if diffuse {
+            assert!(albedo.is_none(), "no lobe is built at a diffuse vertex");
+            bsdf_albedo
+        } else {
+            let ltc = ShadingLtc::new(&bsdf.lobes(wo), &frame, wo, table, &model.options);
+            assert_eq!(albedo.copied(), Some(ltc.total()));
+            assert!(
+                (ltc.total() - bsdf_albedo).abs() > 0.01 * bsdf_albedo,
+                "LTC {} and BSDF {bsdf_albedo} albedos must differ for the test to tell",
+                ltc.total()
+            );
+            ltc.total()
+        };
+        let adjoint = model.adjoint(&w, &ctx, root_total, root_radiance);
+        let expected = reflected_radiance_estimate(&frame, wo, expected_albedo, root_radiance);
+        assert_eq!(adjoint.to_bits(), expected.to_bits(), "α {alpha}");
+        assert!(adjoint > 0.0 && adjoint.is_finite());
     }
 }
 
