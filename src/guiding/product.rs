@@ -234,9 +234,9 @@ pub enum ProductWeights<'a> {
     ///
     /// A reference into the worker's lobe slot rather than the value, so
     /// that both variants hold one pointer and the weights travel in two
-    /// registers. With an `Option<f32>` here the enum was returned through
-    /// memory, and the path loop reloaded it in wider pieces than it had
-    /// been stored in: a store-forwarding stall at every vertex.
+    /// registers. With an `Option<f32>` here the enum went through memory,
+    /// and `SdGuide::vertex` reloaded it in a wider piece than it had been
+    /// stored in: a store-forwarding stall at every vertex.
     RadianceOnly {
         albedo: Option<&'a f32>,
     },
