@@ -189,16 +189,25 @@ fn weights_at<'c>(
     cache: &'c mut ProductCache,
 ) -> Option<ProductWeights<'c>> {
     let frame = Frame::from_normal(normal);
-    let ctx = VertexContext {
+    model.weights(&first_vertex(&frame, wo, bsdf), cache)
+}
+
+/// The context of a path's first vertex at the origin, with the geometric
+/// normal the shading one and no adjoint asked for.
+fn first_vertex<'a>(
+    frame: &'a Frame,
+    wo: Vec3,
+    bsdf: &'a ltcguide::bsdf::Bsdf,
+) -> VertexContext<'a> {
+    VertexContext {
         p: Vec3::ZERO,
-        ng: normal,
-        frame: &frame,
+        ng: frame.n,
+        frame,
         wo_local: wo,
         bsdf,
         needs_adjoint: false,
         vertex_index: 0,
-    };
-    model.weights(&ctx, cache)
+    }
 }
 
 fn cases(rng: &mut Rng) -> Vec<Case> {
@@ -548,13 +557,8 @@ fn the_radiance_fallbacks_adjoint_takes_the_albedo_that_was_built() {
         let bsdf = material(alpha, diffuse).at(Vec2::ZERO);
         let wo = wo_at(theta_o_deg, 0.4);
         let ctx = VertexContext {
-            p: Vec3::ZERO,
-            ng: normal,
-            frame: &frame,
-            wo_local: wo,
-            bsdf: &bsdf,
             needs_adjoint: true,
-            vertex_index: 0,
+            ..first_vertex(&frame, wo, &bsdf)
         };
         let mut cache = ProductCache::default();
         let w = model.weights(&ctx, &mut cache).expect("a reflective BSDF");
@@ -753,13 +757,8 @@ fn only_the_first_vertices_take_product_weights() {
             ..paper_model(table, ProductKernel::Simd)
         };
         let ctx = VertexContext {
-            p: Vec3::ZERO,
-            ng: Vec3::Z,
-            frame: &frame,
-            wo_local: wo,
-            bsdf: &bsdf,
-            needs_adjoint: false,
             vertex_index: index,
+            ..first_vertex(&frame, wo, &bsdf)
         };
         let mut cache = ProductCache::default();
         let w = model.weights(&ctx, &mut cache);
