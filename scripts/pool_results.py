@@ -14,12 +14,13 @@ rendered (--rendered-at; by default the current one).
 PAGE is a page written by scripts/results.sh (docs/results.md or
 docs/results-240s.md), whose comparisons live in docs/<page>/<scene>/.
 NEW_ROOT holds comparisons of some of those scenes, one folder per scene,
-rendered with the page's settings and new seeds, e.g. for the 240 s page:
+rendered with the page's settings and new seeds, e.g. for the 240 s page
+(which holds seeds 1000–1004, so --first-run 5 continues at seed 1005):
 
     for scene in staircase veach-ajar; do
       ltcguide compare ../shared/scenes/$scene --reference ../shared/scenes/$scene/reference.exr \
-        --time 240 --runs 3 --first-run 3 --methods pt,radiance,product --nee paper \
-        --side-by-side --no-plan --out NEW_ROOT/$scene
+        --time 240 --clock cpu --runs 2 --first-run 5 --methods pt,radiance,product \
+        --nee paper --side-by-side --no-plan --out NEW_ROOT/$scene
     done
 
 For each scene of NEW_ROOT, `ltcguide merge` pools the page's comparison and
