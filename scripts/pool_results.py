@@ -14,8 +14,8 @@ rendered (--rendered-at; by default the current one).
 PAGE is a page written by scripts/results.sh (docs/results.md or
 docs/results-240s.md), whose comparisons live in docs/<page>/<scene>/.
 NEW_ROOT holds comparisons of some of those scenes, one folder per scene,
-rendered with the page's settings and new seeds, e.g. for the 240 s page
-(which holds seeds 1000–1004, so --first-run 5 continues at seed 1005):
+rendered with the page's settings and new seeds (--first-run K past the runs
+the page's budget lines name), e.g. for the 240 s page:
 
     for scene in staircase veach-ajar; do
       ltcguide compare ../shared/scenes/$scene --reference ../shared/scenes/$scene/reference.exr \
