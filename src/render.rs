@@ -83,6 +83,9 @@ pub struct RenderOptions {
     /// `None`: scaled to the image size, see
     /// [`crate::guiding::sdtree::default_split_threshold`].
     pub spatial_threshold: Option<f64>,
+    /// Guided methods: λ of the learned BSDF fraction's L2 term, which pulls
+    /// α towards ½; `None`: [`crate::guiding::adam::AdamConfig`]'s default.
+    pub bsdf_fraction_l2: Option<f64>,
     /// What the budget, the snapshot times and the training schedule are
     /// measured in.
     pub time_base: TimeBase,
@@ -111,6 +114,7 @@ impl Default for RenderOptions {
             pixel_reuse: true,
             use_plan: true,
             spatial_threshold: None,
+            bsdf_fraction_l2: None,
             time_base: TimeBase::Wall,
         }
     }

@@ -147,6 +147,12 @@ fn bad_arguments_are_refused_before_the_scene_is_read() {
         (&["--bsdf-fraction", "2"][..], "--bsdf-fraction"),
         (&["--max-depth", "0"], "--max-depth"),
         (&["--spatial-threshold", "0"], "--spatial-threshold"),
+        (&["--bsdf-fraction-l2=-1"], "--bsdf-fraction-l2"),
+        (&["--bsdf-fraction-l2", "NaN"], "--bsdf-fraction-l2"),
+        (
+            &["--bsdf-fraction-l2", "0.1", "--bsdf-fraction", "0.5"],
+            "--bsdf-fraction",
+        ),
         (&["--adrrs-window", "0.5"], "--adrrs-window"),
         // A clock is for a time budget; with --spp it would do nothing.
         (&["--clock", "cpu"], "--clock cpu"),

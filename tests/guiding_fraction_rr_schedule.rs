@@ -415,3 +415,47 @@ fn inverse_variance_combination_matches_hand_computation() {
     );
     assert!(combine(&[&empty]).is_none());
 }
+
+/// `RenderOptions::bsdf_fraction_l2` reaches the leaves' Adam states: a
+/// huge λ holds every trained leaf's α at ½, while without the pull the
+/// same render's leaves move away from it. The stats report the λ used.
+#[test]
+fn the_l2_option_reaches_every_leaf_and_the_stats() {
+    use ltcguide::integrator::path::{PathSettings, RouletteMode};
+    use ltcguide::render::{Budget, Method, RenderOptions, render};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glossy-gap/scene.xml");
+    let scene = ltcguide::scene::load_scene(&path).unwrap();
+    let run = |l2: f64| {
+        let opts = RenderOptions {
+            method: Method::Radiance,
+            budget: Budget::Spp(16),
+            seed: 7,
+            threads: 2,
+            path: PathSettings {
+                nee: false,
+                max_depth: Some(6),
+                roulette: RouletteMode::Adrrs,
+                adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+            },
+            use_plan: false,
+            bsdf_fraction_l2: Some(l2),
+            ..Default::default()
+        };
+        let r = render(&scene, &opts).unwrap();
+        assert_eq!(r.stats.guiding.as_ref().unwrap().adam_l2, l2);
+        let tree = r.tree.unwrap();
+        let trained: Vec<f32> = (0..tree.leaves().len() as u32)
+            .filter(|&i| tree.leaf(i).fraction.steps() > 100)
+            .map(|i| tree.bsdf_fraction(i))
+            .collect();
+        assert!(trained.len() >= 4, "{} trained leaves", trained.len());
+        trained
+            .iter()
+            .map(|a| (a - 0.5).abs())
+            .fold(0.0f32, f32::max)
+    };
+    let held = run(1e4);
+    assert!(held < 0.03, "λ = 1e4: max |α − ½| = {held}");
+    let free = run(0.0);
+    assert!(free > 0.1, "λ = 0: max |α − ½| = {free}");
+}

@@ -194,6 +194,12 @@ struct RenderArgs {
     /// image's pixel count, so leaves see the same share of each pass.
     #[arg(long)]
     spatial_threshold: Option<f64>,
+    /// Guided methods: λ of the learned BSDF fraction's L2 term λθ²/2, which
+    /// pulls α towards ½ (default 0.01, Müller's; 0.1 measured better for
+    /// both guided methods on staircase and veach-mis, docs/results-reading.md,
+    /// session 41).
+    #[arg(long, conflicts_with = "bsdf_fraction")]
+    bsdf_fraction_l2: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -340,6 +346,13 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             "--spatial-threshold must be a positive number, got {c}"
         ));
     }
+    if let Some(l) = args.bsdf_fraction_l2
+        && !(l >= 0.0 && l.is_finite())
+    {
+        return Err(format!(
+            "--bsdf-fraction-l2 must be a finite number ≥ 0, got {l}"
+        ));
+    }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     if let Some(a) = args.bsdf_fraction {
         if !(0.0..=1.0).contains(&a) {
@@ -393,6 +406,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         pixel_reuse: !args.product.no_pixel_reuse,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
+        bsdf_fraction_l2: args.bsdf_fraction_l2,
         time_base: args.clock,
     };
     let plan = ltcguide::render::run_plan(&scene, &opts);

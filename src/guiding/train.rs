@@ -5,6 +5,7 @@
 //! A run whose strategy trial falls back to path tracing images path
 //! tracing's passes alone (`super::fallback_image`).
 
+use super::adam::AdamConfig;
 use super::combine::{combine, combine_counting, iteration_variance, pooled_mean};
 use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
@@ -63,6 +64,8 @@ pub struct GuidingStats {
     pub records_rejected_zero_pdf: u64,
     pub adam_steps: u64,
     pub adam_rejected: u64,
+    /// λ of the BSDF fraction's L2 term (`--bsdf-fraction-l2`).
+    pub adam_l2: f64,
     /// Iterations left out of the final image because their variance was
     /// not finite (see [`combine_counting`]).
     pub iterations_dropped_nonfinite_variance: u64,
@@ -120,6 +123,10 @@ pub fn render_guided<M: WeightModel>(
         split_threshold: opts
             .spatial_threshold
             .unwrap_or_else(|| super::sdtree::default_split_threshold(w * h)),
+        adam: AdamConfig {
+            l2: opts.bsdf_fraction_l2.unwrap_or(AdamConfig::default().l2),
+            ..AdamConfig::default()
+        },
         ..SdTreeConfig::default()
     };
     let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, config);
@@ -417,6 +424,7 @@ pub fn render_guided<M: WeightModel>(
         records_rejected_zero_pdf: records.rejected_zero_pdf,
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
+        adam_l2: tree.config.adam.l2,
         iterations_dropped_nonfinite_variance: iterations_dropped,
         training_stop: opts.training_stop,
         training_ended_by,
