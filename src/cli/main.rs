@@ -195,9 +195,9 @@ struct RenderArgs {
     #[arg(long)]
     spatial_threshold: Option<f64>,
     /// Guided methods: λ of the learned BSDF fraction's L2 term λθ²/2, which
-    /// pulls α towards ½ (default 0.01, Müller's; 0.1 measured better for
-    /// both guided methods on staircase and veach-mis, docs/results-reading.md,
-    /// session 41).
+    /// pulls α towards ½ (default 0.01, Müller's; 0.1 lowered both guided
+    /// methods' relMSE on three glossy pack scenes and raised the product's
+    /// on veach-ajar, docs/results-reading.md, session 41).
     #[arg(long, conflicts_with = "bsdf_fraction")]
     bsdf_fraction_l2: Option<f64>,
 }
