@@ -523,6 +523,38 @@ fn adrrs_window_below_one_is_refused() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A negative or non-finite L2 weight of the BSDF fraction is refused by
+/// compare and attribute with exit code 2 and one error line, before the
+/// scene is read (it does not exist here).
+#[test]
+fn bsdf_fraction_l2_out_of_range_is_refused_by_the_study_commands() {
+    let dir = std::env::temp_dir().join(format!("ltcguide-l2-{}", std::process::id()));
+    let missing = dir.join("no-such-scene.xml");
+    for lambda in ["-1", "NaN", "inf"] {
+        let l2 = format!("--bsdf-fraction-l2={lambda}");
+        let compare = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+            .arg("compare")
+            .arg(&missing)
+            .args(["--time", "0.1", "--reference", "none.exr", &l2, "--out"])
+            .arg(dir.join("out"))
+            .output()
+            .unwrap();
+        let attribute = std::process::Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+            .arg("attribute")
+            .arg(&missing)
+            .arg(&l2)
+            .output()
+            .unwrap();
+        for out in [compare, attribute] {
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{err}");
+            assert!(err.contains("--bsdf-fraction-l2 must be"), "{err}");
+            assert_eq!(err.trim().lines().count(), 1, "{err}");
+        }
+    }
+    assert!(!dir.exists());
+}
+
 /// The ablation times the paper's three kernels with the paper's product
 /// (every vertex, cosine lobes included, so that a diffuse scene exercises
 /// them), then the plan rows: with the plan, without it, and without it at
@@ -577,6 +609,7 @@ fn attribution_pairs_differ_only_in_the_method() {
         guide_fraction: 0.2,
         other_roulette: RouletteMode::Classic,
         exact_integrals,
+        bsdf_fraction_l2: None,
         progress: false,
     };
     let diffuse = tiny();
@@ -685,6 +718,29 @@ fn attribution_pairs_differ_only_in_the_method() {
         assert!((row(2)[s] - 1.0).abs() > 1e-3, "{}", out.markdown);
     }
     assert!(out.markdown.contains("| product: fixed / learned α |"));
+
+    // `--bsdf-fraction-l2` reaches both methods' learned fractions: a huge
+    // λ holds α at ½, none lets it move.
+    let alpha_at = |lambda: f64| {
+        let opts = AttributionOptions {
+            seeds: 1,
+            spp: 32,
+            bsdf_fraction_l2: Some(lambda),
+            ..options(&glossy, false)
+        };
+        let out = run_attribution(&glossy, &opts).unwrap();
+        assert!(
+            out.markdown
+                .contains(&format!("NEE off, BSDF fraction's L2 λ = {lambda},")),
+            "{}",
+            out.markdown
+        );
+        out.alpha[0]
+    };
+    let (held, free) = (alpha_at(1e4), alpha_at(0.0));
+    let off_half = |a: (f64, f64)| [(a.0 - 0.5).abs(), (a.1 - 0.5).abs()];
+    assert!(off_half(held).iter().all(|&d| d < 1e-3), "{held:?}");
+    assert!(off_half(free).iter().all(|&d| d > 3e-3), "{free:?}");
 }
 
 /// Pixels are classed by the floor's material as the product treats it:
@@ -744,9 +800,17 @@ fn attribution_refuses_options_it_cannot_run() {
         guide_fraction: 0.2,
         other_roulette: RouletteMode::Classic,
         exact_integrals: false,
+        bsdf_fraction_l2: None,
         progress: false,
     };
     assert!(check(&good).is_ok());
+    assert!(
+        check(&AttributionOptions {
+            bsdf_fraction_l2: Some(0.0),
+            ..good.clone()
+        })
+        .is_ok()
+    );
     let bad = [
         AttributionOptions {
             spp: 1,
@@ -766,6 +830,18 @@ fn attribution_refuses_options_it_cannot_run() {
         },
         AttributionOptions {
             other_roulette: RouletteMode::Adrrs,
+            ..good.clone()
+        },
+        AttributionOptions {
+            bsdf_fraction_l2: Some(-0.01),
+            ..good.clone()
+        },
+        AttributionOptions {
+            bsdf_fraction_l2: Some(f64::NAN),
+            ..good.clone()
+        },
+        AttributionOptions {
+            bsdf_fraction_l2: Some(f64::INFINITY),
             ..good.clone()
         },
     ];

@@ -6,7 +6,7 @@
 mod common;
 
 use common::study::{compare_options, flat_reference, tiny};
-use ltcguide::experiment::compare::{CompareOptions, run_compare};
+use ltcguide::experiment::compare::{CompareOptions, run_compare, run_options};
 use ltcguide::experiment::cost::{COST_CSV, COST_HEADING, CostRow, parse_cost_csv};
 use ltcguide::experiment::curves::{CurveRow, parse_csv};
 use ltcguide::experiment::merge::merge;
@@ -252,6 +252,73 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
     assert!(err.contains("one row for each run"), "{err}");
     assert!(!fresh.exists());
     for d in [a, b, c, out] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// `compare --bsdf-fraction-l2`: λ reaches every guided run, and a λ other
+/// than the default enters the settings line, so `merge` refuses to pool
+/// its runs with the default's, while runs that name the default pool with
+/// runs made before the option existed. A bad λ is refused before anything
+/// is written.
+#[test]
+fn merge_pools_only_runs_at_the_same_bsdf_fraction_l2() {
+    let study_at = |dir: &Path, first_run: u32, lambda: Option<f64>| {
+        let opts = CompareOptions {
+            first_run,
+            use_plan: false,
+            bsdf_fraction_l2: lambda,
+            ..compare_options(vec![Method::Pt, Method::Radiance], dir)
+        };
+        for method in [Method::Pt, Method::Radiance, Method::Product] {
+            let render = run_options(&tiny(), method, first_run, &opts);
+            assert_eq!(render.bsdf_fraction_l2, lambda, "{method:?}");
+        }
+        run_compare(&tiny(), &flat_reference(), &opts).unwrap();
+        std::fs::read_to_string(dir.join("summary.md")).unwrap()
+    };
+    let (a, b, c) = (temp("la"), temp("lb"), temp("lc"));
+    let default = study_at(&a, 0, None);
+    let named_default = study_at(&b, 1, Some(0.01));
+    let other = study_at(&c, 2, Some(0.1));
+    let settings = |summary: &str| {
+        summary
+            .lines()
+            .find(|l| l.starts_with("Path settings: "))
+            .unwrap()
+            .to_owned()
+    };
+    assert_eq!(settings(&default), settings(&named_default));
+    assert!(!default.contains("L2"), "{default}");
+    assert!(
+        settings(&other).contains("training stops: budget, BSDF fraction's L2 λ = 0.1. "),
+        "{other}"
+    );
+    // pt learns no fraction: its settings say nothing of λ.
+    let pt = settings(&other);
+    assert!(
+        pt.starts_with("Path settings: pt: NEE, roulette classic; "),
+        "{pt}"
+    );
+    let (pooled, refused) = (temp("lpool"), temp("lrefused"));
+    merge(&pooled, &[a.clone(), b.clone()]).unwrap();
+    let err = merge(&refused, &[a.clone(), c.clone()]).unwrap_err();
+    assert!(err.contains("differ in"), "{err}");
+    assert!(!refused.exists());
+    // A bad λ fails before the output folder is made.
+    let bad_dir = temp("lbad");
+    for lambda in [-0.1, f64::NAN, f64::INFINITY] {
+        let opts = CompareOptions {
+            bsdf_fraction_l2: Some(lambda),
+            ..compare_options(vec![Method::Radiance], &bad_dir)
+        };
+        match run_compare(&tiny(), &flat_reference(), &opts) {
+            Err(err) => assert!(err.contains("--bsdf-fraction-l2 must be"), "{err}"),
+            Ok(_) => panic!("λ = {lambda} was accepted"),
+        }
+        assert!(!bad_dir.exists());
+    }
+    for d in [a, b, c, pooled] {
         std::fs::remove_dir_all(d).ok();
     }
 }

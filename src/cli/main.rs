@@ -346,12 +346,8 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             "--spatial-threshold must be a positive number, got {c}"
         ));
     }
-    if let Some(l) = args.bsdf_fraction_l2
-        && !(l >= 0.0 && l.is_finite())
-    {
-        return Err(format!(
-            "--bsdf-fraction-l2 must be a finite number ≥ 0, got {l}"
-        ));
+    if let Some(l) = args.bsdf_fraction_l2 {
+        ltcguide::guiding::adam::check_l2(l)?;
     }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     if let Some(a) = args.bsdf_fraction {

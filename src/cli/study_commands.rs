@@ -54,6 +54,11 @@ pub struct CompareArgs {
     schedule: ScheduleArgs,
     #[command(flatten)]
     product: ProductArgs,
+    /// Guided methods: λ of the learned BSDF fraction's L2 term (as for
+    /// render; default 0.01). A λ other than the default enters the summary's
+    /// settings line, so `merge` refuses to pool runs across it.
+    #[arg(long)]
+    bsdf_fraction_l2: Option<f64>,
     /// Render the methods of each run at the same time, each on an equal
     /// share of --threads (at least one), instead of one after the other: on
     /// a shared host every method then meets the same load, so their ratios
@@ -93,6 +98,9 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         return Err("--time must be a positive number of seconds".into());
     }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
+    if let Some(lambda) = args.bsdf_fraction_l2 {
+        ltcguide::guiding::adam::check_l2(lambda)?;
+    }
     let scene = load(&args.scene)?;
     let reference = read_valid_image(&args.reference)?;
     let opts = ltcguide::experiment::compare::CompareOptions {
@@ -110,6 +118,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
+        bsdf_fraction_l2: args.bsdf_fraction_l2,
         side_by_side: args.side_by_side,
         use_plan: !args.no_plan,
         progress: true,

@@ -71,6 +71,10 @@ pub struct AttributeArgs {
     /// Leave out the exact-integrals factor (its product runs ~3× longer).
     #[arg(long)]
     pub no_exact: bool,
+    /// λ of the learned BSDF fraction's L2 term, for both methods' learned
+    /// fractions (as for render; default 0.01).
+    #[arg(long)]
+    pub bsdf_fraction_l2: Option<f64>,
 }
 
 impl AttributeArgs {
@@ -89,6 +93,7 @@ impl AttributeArgs {
             guide_fraction: self.guide_fraction,
             other_roulette: self.other_rr,
             exact_integrals: !self.no_exact,
+            bsdf_fraction_l2: self.bsdf_fraction_l2,
             progress: true,
         }
     }
@@ -110,6 +115,8 @@ pub struct AttributionOptions {
     pub other_roulette: RouletteMode,
     /// Also run the exact f64 integrals (the slowest pair, ~3× a render).
     pub exact_integrals: bool,
+    /// λ of the learned BSDF fraction's L2 term (`None`: Adam's default).
+    pub bsdf_fraction_l2: Option<f64>,
     pub progress: bool,
 }
 
@@ -333,6 +340,9 @@ pub fn check(opts: &AttributionOptions) -> Result<(), String> {
     if opts.other_roulette == opts.path.roulette {
         return Err("the roulette factor needs a roulette other than the run's".into());
     }
+    if let Some(lambda) = opts.bsdf_fraction_l2 {
+        crate::guiding::adam::check_l2(lambda)?;
+    }
     Ok(())
 }
 
@@ -349,6 +359,7 @@ pub fn run_attribution(
         threads: side,
         path: opts.path,
         use_plan: false,
+        bsdf_fraction_l2: opts.bsdf_fraction_l2,
         ..Default::default()
     };
     let roulette_name = |r: RouletteMode| format!("{r:?}").to_lowercase();

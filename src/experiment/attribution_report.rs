@@ -18,11 +18,12 @@ pub(super) fn markdown(
     let _ = writeln!(
         md,
         "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
-         NEE {}, every part of the method forced on. < 1 favours the product.\n",
+         NEE {}{}, every part of the method forced on. < 1 favours the product.\n",
         scene.name,
         opts.spp,
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
+        super::compare::l2_phrase(opts.bsdf_fraction_l2),
     );
     factor_table(&mut md, "factor", opts.seeds as usize, rows);
     let values: String = alpha

@@ -56,6 +56,9 @@ pub struct CompareOptions {
     /// Product guiding's reuse of a first-vertex lobe across a pixel's
     /// paths and its neighbours'.
     pub pixel_reuse: bool,
+    /// Guided methods: λ of the learned BSDF fraction's L2 term (`None`:
+    /// Adam's default, Müller's 0.01).
+    pub bsdf_fraction_l2: Option<f64>,
     /// Render the methods of a run at the same time, each on an equal share
     /// of the threads, instead of one after the other.
     pub side_by_side: bool,
@@ -83,6 +86,19 @@ pub struct CompareOutcome {
     pub rows: Vec<CurveRow>,
     pub curves: Vec<MeanCurve>,
     pub summary: String,
+}
+
+/// The settings line's words for a non-default L2 weight of the BSDF
+/// fraction. The default says nothing, so that the line stays that of the
+/// runs made before the option existed and `merge` still pools with them,
+/// while runs at another λ differ and are refused.
+pub(super) fn l2_phrase(lambda: Option<f64>) -> String {
+    match lambda {
+        Some(l) if l != crate::guiding::adam::AdamConfig::default().l2 => {
+            format!(", BSDF fraction's L2 λ = {l}")
+        }
+        _ => String::new(),
+    }
 }
 
 /// A method's path settings in this comparison: `path_for`'s, with the
@@ -129,6 +145,9 @@ pub fn run_compare(
     reference.check_valid("the reference")?;
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
+    }
+    if let Some(lambda) = opts.bsdf_fraction_l2 {
+        crate::guiding::adam::check_l2(lambda)?;
     }
     if opts.first_run.checked_add(opts.runs).is_none() {
         return Err(format!(
@@ -280,8 +299,13 @@ pub fn run_seed(run: u32) -> u64 {
     1000 + run as u64
 }
 
-/// Each method's render options in run `run`.
-fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -> RenderOptions {
+/// Each method's render options in run `run`: what the comparison renders.
+pub fn run_options(
+    scene: &Scene,
+    method: Method,
+    run: u32,
+    opts: &CompareOptions,
+) -> RenderOptions {
     RenderOptions {
         method,
         budget: Budget::Seconds(opts.seconds),
@@ -299,6 +323,7 @@ fn run_options(scene: &Scene, method: Method, run: u32, opts: &CompareOptions) -
         cosine_lobes: opts.cosine_lobes,
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
+        bsdf_fraction_l2: opts.bsdf_fraction_l2,
         use_plan: opts.use_plan,
         time_base: opts.time_base,
         ..Default::default()
@@ -417,6 +442,7 @@ fn summary_markdown(
                 String::new()
             } else {
                 format!(", training stops: {:?}", opts.training_stop).to_lowercase()
+                    + &l2_phrase(opts.bsdf_fraction_l2)
             };
             format!("{}: {nee}, roulette {rr}{training}{cosine}", method_name(m))
         })

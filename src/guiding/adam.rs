@@ -79,6 +79,19 @@ impl Default for AdamConfig {
     }
 }
 
+/// Refuses an L2 weight λ (`--bsdf-fraction-l2`) that is negative or not
+/// finite: a negative λ would push α away from ½ without bound, and a NaN
+/// would reach every leaf's θ.
+pub fn check_l2(lambda: f64) -> Result<(), String> {
+    if lambda >= 0.0 && lambda.is_finite() {
+        Ok(())
+    } else {
+        Err(format!(
+            "--bsdf-fraction-l2 must be a finite number ≥ 0, got {lambda}"
+        ))
+    }
+}
+
 /// Outcome counters of optimisation steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AdamStats {
