@@ -196,8 +196,9 @@ struct RenderArgs {
     spatial_threshold: Option<f64>,
     /// Guided methods: λ of the learned BSDF fraction's L2 term λθ²/2, which
     /// pulls α towards ½ (default 0.01, Müller's; 0.1 lowered both guided
-    /// methods' relMSE on three glossy pack scenes and raised the product's
-    /// on veach-ajar, docs/results-reading.md, session 41).
+    /// methods' relMSE on three glossy pack scenes at 32 and 128 spp and
+    /// raised the product's on veach-ajar, and lowered both on all four at
+    /// 240 CPU s, docs/results-reading.md, sessions 41 and 42).
     #[arg(long, conflicts_with = "bsdf_fraction")]
     bsdf_fraction_l2: Option<f64>,
 }
