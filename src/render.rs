@@ -120,6 +120,66 @@ impl Default for RenderOptions {
     }
 }
 
+impl RenderOptions {
+    /// Refuses options no render can run, before any work: the command
+    /// line checks its flags with the same rules, and a library caller gets
+    /// the same errors from [`render`] instead of a hang (a NaN deadline is
+    /// never reached), an image of 0 spp, or a NaN in the tree's α.
+    pub fn check(&self) -> Result<(), String> {
+        match self.budget {
+            Budget::Spp(0) => return Err("--spp must be at least 1".into()),
+            Budget::Seconds(t) if !(t > 0.0 && t.is_finite()) => {
+                return Err(format!(
+                    "--time must be a positive number of seconds, got {t}"
+                ));
+            }
+            _ => {}
+        }
+        if self.path.max_depth == Some(0) {
+            return Err("--max-depth must be -1 or at least 1, got 0".into());
+        }
+        crate::guiding::adrrs::check_window(self.path.adrrs_window)?;
+        if let Some(a) = self.bsdf_fraction {
+            check_bsdf_fraction(a)?;
+        }
+        if let Some(c) = self.spatial_threshold {
+            crate::guiding::sdtree::check_split_threshold(c)?;
+        }
+        if let Some(l) = self.bsdf_fraction_l2 {
+            crate::guiding::adam::check_l2(l)?;
+        }
+        check_snapshot_times(&self.snapshot_times)
+    }
+}
+
+/// A fixed BSDF-sampling fraction (`--bsdf-fraction`) is a probability.
+pub fn check_bsdf_fraction(a: f32) -> Result<(), String> {
+    if (0.0..=1.0).contains(&a) {
+        Ok(())
+    } else {
+        Err(format!("--bsdf-fraction must be in [0, 1], got {a}"))
+    }
+}
+
+/// Snapshot times must be finite, non-negative and ascending: the plan
+/// takes them in order, so a NaN or a time below its predecessor would
+/// hold back every snapshot after it, and their points would be lost from
+/// the error-versus-time curve.
+fn check_snapshot_times(times: &[f64]) -> Result<(), String> {
+    if let Some(t) = times.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+        return Err(format!(
+            "snapshot times must be finite and non-negative, got {t}"
+        ));
+    }
+    if let Some(w) = times.windows(2).find(|w| w[1] < w[0]) {
+        return Err(format!(
+            "snapshot times must be ascending, got {} after {}",
+            w[1], w[0]
+        ));
+    }
+    Ok(())
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
     pub scene: String,
@@ -219,7 +279,10 @@ pub fn run_plan(scene: &Scene, opts: &RenderOptions) -> crate::plan::ScenePlan {
     plan
 }
 
+/// Renders `scene` with `opts`; refuses options [`RenderOptions::check`]
+/// rejects before starting a thread.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
+    opts.check()?;
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);

@@ -375,3 +375,108 @@ fn stiff_scene_renders_finite_and_methods_agree() {
         );
     }
 }
+
+/// The library's `render` refuses every option no render can run, with the
+/// command line's message, where it would otherwise hang (a NaN deadline is
+/// never reached), image 0 spp, split every box or none, feed a NaN to
+/// Adam, or lose the snapshots after a misordered one. Each case is
+/// otherwise a valid 1 spp product render, which the last line runs.
+#[test]
+fn render_refuses_options_it_cannot_run() {
+    let scene = load_scene(&scene_path("scenes/stiff/scene.xml")).unwrap();
+    let valid = RenderOptions {
+        method: Method::Product,
+        budget: Budget::Spp(1),
+        threads: 1,
+        use_plan: false,
+        ..Default::default()
+    };
+    let with = |change: &dyn Fn(&mut RenderOptions)| {
+        let mut o = valid.clone();
+        change(&mut o);
+        o
+    };
+    let cases: Vec<(RenderOptions, &str)> = vec![
+        (
+            with(&|o| o.budget = Budget::Spp(0)),
+            "--spp must be at least 1",
+        ),
+        (with(&|o| o.budget = Budget::Seconds(0.0)), "--time must be"),
+        (
+            with(&|o| o.budget = Budget::Seconds(-1.0)),
+            "--time must be",
+        ),
+        (
+            with(&|o| o.budget = Budget::Seconds(f64::NAN)),
+            "--time must be",
+        ),
+        (
+            with(&|o| o.budget = Budget::Seconds(f64::INFINITY)),
+            "--time must be",
+        ),
+        (with(&|o| o.path.max_depth = Some(0)), "--max-depth"),
+        (with(&|o| o.path.adrrs_window = 0.5), "--adrrs-window"),
+        (with(&|o| o.path.adrrs_window = f32::NAN), "--adrrs-window"),
+        (
+            with(&|o| o.bsdf_fraction = Some(-0.1)),
+            "--bsdf-fraction must",
+        ),
+        (
+            with(&|o| o.bsdf_fraction = Some(1.5)),
+            "--bsdf-fraction must",
+        ),
+        (
+            with(&|o| o.bsdf_fraction = Some(f32::NAN)),
+            "--bsdf-fraction must",
+        ),
+        (
+            with(&|o| o.spatial_threshold = Some(0.0)),
+            "--spatial-threshold",
+        ),
+        (
+            with(&|o| o.spatial_threshold = Some(f64::NAN)),
+            "--spatial-threshold",
+        ),
+        (
+            with(&|o| o.spatial_threshold = Some(f64::INFINITY)),
+            "--spatial-threshold",
+        ),
+        (
+            with(&|o| o.bsdf_fraction_l2 = Some(-0.01)),
+            "--bsdf-fraction-l2",
+        ),
+        (
+            with(&|o| o.bsdf_fraction_l2 = Some(f64::NAN)),
+            "--bsdf-fraction-l2",
+        ),
+        (
+            with(&|o| o.snapshot_times = vec![0.1, f64::NAN, 0.3]),
+            "snapshot times must be finite",
+        ),
+        (
+            with(&|o| o.snapshot_times = vec![-0.1]),
+            "snapshot times must be finite",
+        ),
+        (
+            with(&|o| o.snapshot_times = vec![0.1, 0.3, 0.2]),
+            "snapshot times must be ascending, got 0.2 after 0.3",
+        ),
+    ];
+    for (opts, expected) in &cases {
+        match render(&scene, opts) {
+            Ok(_) => panic!("rendered with {opts:?}"),
+            Err(e) => assert!(e.contains(expected), "{e:?} does not say {expected:?}"),
+        }
+        assert!(opts.check().is_err());
+    }
+    // The boundaries the checks let through.
+    let edges = with(&|o| {
+        o.path.adrrs_window = 1.0;
+        o.bsdf_fraction = Some(1.0);
+        o.bsdf_fraction_l2 = Some(0.0);
+        o.snapshot_times = vec![0.0, 0.0, 1e9];
+    });
+    assert_eq!(edges.check(), Ok(()));
+    let image = render(&scene, &edges).unwrap().image;
+    assert!(image.pixels.iter().all(|p| is_finite3(*p)));
+}

@@ -340,21 +340,15 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     {
         return Err(format!("--max-depth must be -1 or at least 1, got {d}"));
     }
-    if let Some(c) = args.spatial_threshold
-        && !(c > 0.0 && c.is_finite())
-    {
-        return Err(format!(
-            "--spatial-threshold must be a positive number, got {c}"
-        ));
+    if let Some(c) = args.spatial_threshold {
+        ltcguide::guiding::sdtree::check_split_threshold(c)?;
     }
     if let Some(l) = args.bsdf_fraction_l2 {
         ltcguide::guiding::adam::check_l2(l)?;
     }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     if let Some(a) = args.bsdf_fraction {
-        if !(0.0..=1.0).contains(&a) {
-            return Err(format!("--bsdf-fraction must be in [0, 1], got {a}"));
-        }
+        ltcguide::render::check_bsdf_fraction(a)?;
         if a == 0.0 {
             eprintln!(
                 "warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples"

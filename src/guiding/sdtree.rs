@@ -47,6 +47,19 @@ pub fn default_split_threshold(pixels: usize) -> f64 {
     (REFERENCE_SPLIT_THRESHOLD * pixels as f64 / REFERENCE_PIXELS).max(MIN_SPLIT_THRESHOLD)
 }
 
+/// Refuses a split constant c (`--spatial-threshold`) that is not a
+/// positive finite number: c ≤ 0 would split every box down to
+/// [`MAX_SPATIAL_DEPTH`], and a NaN would never split one.
+pub fn check_split_threshold(c: f64) -> Result<(), String> {
+    if c > 0.0 && c.is_finite() {
+        Ok(())
+    } else {
+        Err(format!(
+            "--spatial-threshold must be a positive number, got {c}"
+        ))
+    }
+}
+
 /// Deepest spatial node; a cube of side 1 km is then cut to ~1 mm per axis.
 pub const MAX_SPATIAL_DEPTH: u32 = 60;
 
