@@ -10,7 +10,7 @@ use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
 use ltcguide::film::exr_io::write_rgb;
 use ltcguide::film::image::Image;
 use ltcguide::guiding::trial::FALLBACK_IMAGE;
-use ltcguide::integrator::path::RouletteMode;
+use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::render::{Budget, Method, RenderOptions, TimeBase, render};
 use ltcguide::scene::Scene;
 use std::path::Path;
@@ -247,6 +247,33 @@ fn compare_refuses_a_reference_of_the_wrong_size() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("reference is 10×10"));
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `run_compare` checks every method's render options before it makes its
+/// folder: an infinite budget (which the positive-time check lets through)
+/// or an ADRRS window below 1 would otherwise leave an empty folder behind
+/// when the first render refuses them.
+#[test]
+fn compare_checks_every_methods_render_options_before_its_folder() {
+    let dir = std::env::temp_dir().join(format!("ltcguide-compare-opts-{}", std::process::id()));
+    let infinite = CompareOptions {
+        seconds: f64::INFINITY,
+        ..compare_options(vec![Method::Pt], &dir)
+    };
+    let narrow_window = CompareOptions {
+        guided_roulette: Some((RouletteMode::Adrrs, 0.5)),
+        ..compare_options(vec![Method::Pt, Method::Radiance], &dir)
+    };
+    for (opts, expected) in [
+        (infinite, "--time must be"),
+        (narrow_window, "--adrrs-window must be"),
+    ] {
+        match run_compare(&tiny(), &flat_reference(), &opts) {
+            Err(err) => assert!(err.contains(expected), "{err}"),
+            Ok(_) => panic!("{expected}: accepted"),
+        }
+        assert!(!dir.exists(), "{expected}: the folder was made");
+    }
 }
 
 #[test]
@@ -842,6 +869,20 @@ fn attribution_refuses_options_it_cannot_run() {
         },
         AttributionOptions {
             bsdf_fraction_l2: Some(f64::INFINITY),
+            ..good.clone()
+        },
+        AttributionOptions {
+            path: PathSettings {
+                adrrs_window: 0.5,
+                ..good.path
+            },
+            ..good.clone()
+        },
+        AttributionOptions {
+            path: PathSettings {
+                max_depth: Some(0),
+                ..good.path
+            },
             ..good.clone()
         },
     ];

@@ -198,7 +198,7 @@ struct RenderArgs {
     /// pulls α towards ½ (default 0.01, Müller's; 0.1 lowered both guided
     /// methods' relMSE on three glossy pack scenes at 32 and 128 spp and
     /// raised the product's on veach-ajar, and lowered both on all four at
-    /// 240 CPU s, docs/results-reading.md, sessions 41 and 42).
+    /// 240 CPU s over five seeds, docs/results-reading.md, sessions 41–43).
     #[arg(long, conflicts_with = "bsdf_fraction")]
     bsdf_fraction_l2: Option<f64>,
 }

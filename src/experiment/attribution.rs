@@ -340,10 +340,14 @@ pub fn check(opts: &AttributionOptions) -> Result<(), String> {
     if opts.other_roulette == opts.path.roulette {
         return Err("the roulette factor needs a roulette other than the run's".into());
     }
-    if let Some(lambda) = opts.bsdf_fraction_l2 {
-        crate::guiding::adam::check_l2(lambda)?;
+    // What every render of the attribution shares, by the renders' own rules.
+    RenderOptions {
+        budget: Budget::Spp(opts.spp),
+        path: opts.path,
+        bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        ..Default::default()
     }
-    Ok(())
+    .check()
 }
 
 pub fn run_attribution(

@@ -146,8 +146,10 @@ pub fn run_compare(
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
     }
-    if let Some(lambda) = opts.bsdf_fraction_l2 {
-        crate::guiding::adam::check_l2(lambda)?;
+    // Every run of a method differs only in its seed, so checking the first
+    // run's options checks them all, before the folder is made.
+    for &method in &opts.methods {
+        run_options(scene, method, opts.first_run, opts).check()?;
     }
     if opts.first_run.checked_add(opts.runs).is_none() {
         return Err(format!(
