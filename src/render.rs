@@ -38,6 +38,20 @@ pub enum Budget {
     Seconds(f64),
 }
 
+impl Budget {
+    /// At least 1 spp, or a positive finite time: a NaN or infinite
+    /// deadline is never reached.
+    pub fn check(self) -> Result<(), String> {
+        match self {
+            Budget::Spp(0) => Err("--spp must be at least 1".into()),
+            Budget::Seconds(t) if !(t > 0.0 && t.is_finite()) => Err(format!(
+                "--time must be a positive number of seconds, got {t}"
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
@@ -126,15 +140,7 @@ impl RenderOptions {
     /// the same errors from [`render`] instead of a hang (a NaN deadline is
     /// never reached), an image of 0 spp, or a NaN in the tree's α.
     pub fn check(&self) -> Result<(), String> {
-        match self.budget {
-            Budget::Spp(0) => return Err("--spp must be at least 1".into()),
-            Budget::Seconds(t) if !(t > 0.0 && t.is_finite()) => {
-                return Err(format!(
-                    "--time must be a positive number of seconds, got {t}"
-                ));
-            }
-            _ => {}
-        }
+        self.budget.check()?;
         if self.path.max_depth == Some(0) {
             return Err("--max-depth must be -1 or at least 1, got 0".into());
         }

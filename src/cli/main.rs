@@ -323,14 +323,11 @@ const ALPHA_NEEDS_GUIDING: &str =
 fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     // The arguments first: a bad one fails before a scene is loaded.
     let budget = match (args.spp, args.time) {
-        (Some(0), _) => return Err("--spp must be at least 1".into()),
         (Some(n), _) => Budget::Spp(n),
-        (None, Some(t)) if !(t > 0.0 && t.is_finite()) => {
-            return Err("--time must be a positive number of seconds".into());
-        }
         (None, Some(t)) => Budget::Seconds(t),
         (None, None) => Budget::Spp(64),
     };
+    budget.check()?;
     if args.clock == TimeBase::Cpu && !matches!(budget, Budget::Seconds(_)) {
         return Err("--clock cpu measures a --time budget; a sample budget has no clock".into());
     }

@@ -7,7 +7,7 @@ use clap::Args;
 use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::read_valid_image;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
-use ltcguide::render::{Method, TimeBase};
+use ltcguide::render::{Budget, Method, TimeBase};
 use ltcguide::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -94,9 +94,7 @@ pub fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
 
 pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     // The arguments first: a bad one fails before a scene is loaded.
-    if !(args.time > 0.0 && args.time.is_finite()) {
-        return Err("--time must be a positive number of seconds".into());
-    }
+    Budget::Seconds(args.time).check()?;
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     if let Some(lambda) = args.bsdf_fraction_l2 {
         ltcguide::guiding::adam::check_l2(lambda)?;
@@ -129,9 +127,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
 }
 
 pub fn cmd_ablation(path: &Path, spp: u32, threads: usize) -> Result<(), String> {
-    if spp == 0 {
-        return Err("--spp must be at least 1".into());
-    }
+    Budget::Spp(spp).check()?;
     let scene = load(path)?;
     let settings = default_path_settings(&scene, Method::Product);
     let out = ltcguide::experiment::ablation::run_ablation(&scene, spp, threads, settings, true)?;
