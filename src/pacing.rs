@@ -151,6 +151,25 @@ impl SnapshotPlan {
         }
     }
 
+    /// Refuses times the plan cannot take in order: it waits for each
+    /// time before the next, so a NaN or a time below its predecessor would
+    /// hold back every snapshot after it, and their points would be lost
+    /// from the error-versus-time curve.
+    pub fn check_times(times: &[f64]) -> Result<(), String> {
+        if let Some(t) = times.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+            return Err(format!(
+                "snapshot times must be finite and non-negative, got {t}"
+            ));
+        }
+        if let Some(w) = times.windows(2).find(|w| w[1] < w[0]) {
+            return Err(format!(
+                "snapshot times must be ascending, got {} after {}",
+                w[1], w[0]
+            ));
+        }
+        Ok(())
+    }
+
     /// Roughly geometric time points from `first` to `last`, `per_doubling` per doubling.
     pub fn geometric(first: f64, last: f64, per_doubling: u32) -> Self {
         let mut times = Vec::new();

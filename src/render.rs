@@ -154,7 +154,7 @@ impl RenderOptions {
         if let Some(l) = self.bsdf_fraction_l2 {
             crate::guiding::adam::check_l2(l)?;
         }
-        check_snapshot_times(&self.snapshot_times)
+        SnapshotPlan::check_times(&self.snapshot_times)
     }
 }
 
@@ -165,25 +165,6 @@ pub fn check_bsdf_fraction(a: f32) -> Result<(), String> {
     } else {
         Err(format!("--bsdf-fraction must be in [0, 1], got {a}"))
     }
-}
-
-/// Snapshot times must be finite, non-negative and ascending: the plan
-/// takes them in order, so a NaN or a time below its predecessor would
-/// hold back every snapshot after it, and their points would be lost from
-/// the error-versus-time curve.
-fn check_snapshot_times(times: &[f64]) -> Result<(), String> {
-    if let Some(t) = times.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
-        return Err(format!(
-            "snapshot times must be finite and non-negative, got {t}"
-        ));
-    }
-    if let Some(w) = times.windows(2).find(|w| w[1] < w[0]) {
-        return Err(format!(
-            "snapshot times must be ascending, got {} after {}",
-            w[1], w[0]
-        ));
-    }
-    Ok(())
 }
 
 #[derive(Clone, Debug, Serialize)]
