@@ -167,6 +167,27 @@ pub fn check_bsdf_fraction(a: f32) -> Result<(), String> {
     }
 }
 
+/// A guided vertex samples a delta lobe only through BSDF sampling, which a
+/// fixed fraction of 0 never chooses: on a material with a delta lobe beside
+/// its rough ones (smooth `plastic`'s coat) that light would be lost.
+fn check_fraction_samples_delta_lobes(scene: &Scene, opts: &RenderOptions) -> Result<(), String> {
+    if opts.method == Method::Pt || opts.bsdf_fraction != Some(0.0) {
+        return Ok(());
+    }
+    if scene
+        .materials
+        .iter()
+        .any(|m| m.has_delta_and_non_delta_lobes())
+    {
+        return Err(
+            "--bsdf-fraction 0 never samples the delta lobe of the scene's smooth \
+                    plastic (its coat), so that reflection would be lost; give a fraction above 0"
+                .into(),
+        );
+    }
+    Ok(())
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
     pub scene: String,
@@ -270,6 +291,7 @@ pub fn run_plan(scene: &Scene, opts: &RenderOptions) -> crate::plan::ScenePlan {
 /// rejects before starting a thread.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, String> {
     opts.check()?;
+    check_fraction_samples_delta_lobes(scene, opts)?;
     let pool = thread_pool(opts.threads)?;
     let threads = pool.current_num_threads();
     let plan = run_plan(scene, opts);

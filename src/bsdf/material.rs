@@ -266,6 +266,13 @@ impl Material {
         reflects_nothing(&self.kind)
     }
 
+    /// True for smooth `plastic`: a delta coat beside a rough lobe, so the
+    /// vertex is guided while one of its lobes only BSDF sampling reaches.
+    #[inline]
+    pub fn has_delta_and_non_delta_lobes(&self) -> bool {
+        matches!(self.kind, MaterialKind::Plastic { .. })
+    }
+
     /// [`Bsdf::has_smooth_lobes_only`] of every `at(uv)`, known without a
     /// texture lookup.
     #[inline]

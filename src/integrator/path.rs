@@ -314,9 +314,15 @@ pub fn trace_path<G: Guide>(
                 }
                 let dir = it.frame.to_world(s.wi);
                 if s.is_delta {
+                    // At a guided vertex (smooth plastic's coat) BSDF sampling
+                    // was chosen with probability α, and the guide never
+                    // proposes a delta direction, so the sample's probability
+                    // is α·p_lobe. `render` refuses α = 0 where a guided BSDF
+                    // has a delta lobe, since that lobe would never be sampled.
+                    let a = guide_vertex.as_ref().map_or(1.0, |g| g.bsdf_fraction());
                     (wi_world, weight, pdf_mix, is_delta, eta) =
-                        (dir, s.weight, s.pdf, true, s.eta);
-                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, 1.0, s.weight);
+                        (dir, s.weight / a, a * s.pdf, true, s.eta);
+                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, a, s.weight);
                 } else if let Some(g) = guide_vertex.as_mut() {
                     let a = g.bsdf_fraction();
                     let pg = g.pdf(dir);
