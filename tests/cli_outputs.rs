@@ -111,6 +111,81 @@ fn unwritable_outputs_are_refused_before_the_render() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Every file `render` writes is checked before it renders: two flags
+/// naming one file (the statistics would replace the image or its preview,
+/// and the summary line still named the image), and a preview or alpha AOV
+/// that cannot be written (the image was written, then the run failed).
+#[test]
+fn outputs_naming_one_file_or_unwritable_previews_are_refused_before_the_render() {
+    let dir = work_dir("distinct");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let out = path("r.exr");
+    for (stats, twin) in [
+        (path("r.exr"), "--out"),
+        (path("r.png"), "the PNG preview"),
+        (
+            format!("{}/./sub/../r.png", dir.display()),
+            "the PNG preview",
+        ),
+    ] {
+        let (code, err) = render(&default_scene(), &["--out", &out, "--stats-json", &stats]);
+        assert_refused(
+            code,
+            &err,
+            &format!("{twin} and --stats-json both name"),
+            &dir,
+            &[],
+        );
+    }
+    std::fs::create_dir(dir.join("p.png")).unwrap();
+    let (code, err) = render(&default_scene(), &["--out", &path("p.exr")]);
+    assert_refused(code, &err, "is a directory", &dir, &["p.png"]);
+    std::fs::create_dir(dir.join("a-alpha.png")).unwrap();
+    let aov = [
+        "--out",
+        &path("a.exr"),
+        "--method",
+        "radiance",
+        "--no-plan",
+        "--aov",
+        "alpha",
+        "--stats-json",
+        &path("a.json"),
+    ];
+    let (code, err) = render(&default_scene(), &aov);
+    assert_refused(
+        code,
+        &err,
+        "is a directory",
+        &dir,
+        &["p.png", "a-alpha.png"],
+    );
+    // The alpha AOV beside the image is also one of its names.
+    let (code, err) = render(
+        &default_scene(),
+        &[
+            "--out",
+            &path("b.exr"),
+            "--method",
+            "radiance",
+            "--no-plan",
+            "--aov",
+            "alpha",
+        ]
+        .into_iter()
+        .chain(["--stats-json", &path("b-alpha.exr")])
+        .collect::<Vec<_>>(),
+    );
+    assert_refused(
+        code,
+        &err,
+        "the alpha AOV and --stats-json both name",
+        &dir,
+        &["p.png", "a-alpha.png"],
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn an_alpha_aov_without_guiding_is_refused_before_the_render() {
     let dir = work_dir("aov");

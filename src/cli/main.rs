@@ -404,8 +404,24 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             plan.reasons.join("; ")
         ));
     }
-    ltcguide::film::ensure_writable(&args.out)?;
+    // Every file the render will write, checked before it starts: a path
+    // named twice would have one output replace another, and an unwritable
+    // one would fail after the render with half the outputs written.
+    let png = args.out.with_extension("png");
+    let mut outputs = vec![
+        ("--out", args.out.clone()),
+        ("the PNG preview", png.clone()),
+    ];
+    if alpha_aov {
+        let (exr, png) = ltcguide::guiding::aov::alpha_aov_paths(&args.out);
+        outputs.push(("the alpha AOV", exr));
+        outputs.push(("the alpha AOV's PNG", png));
+    }
     if let Some(path) = &args.stats_json {
+        outputs.push(("--stats-json", path.clone()));
+    }
+    ltcguide::film::check_distinct_outputs(&outputs)?;
+    for (_, path) in &outputs {
         ltcguide::film::ensure_writable(path)?;
     }
     eprintln!("{}", plan.line());
@@ -416,7 +432,6 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         result.image.height,
         &result.image.pixels,
     )?;
-    let png = args.out.with_extension("png");
     write_png(&png, &result.image)?;
     let s = &result.stats;
     if let Some(g) = s.guiding.as_ref() {

@@ -34,6 +34,52 @@ pub fn ensure_writable(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// The file `path` names, whether or not it exists yet: its longest
+/// existing ancestor resolved (symbolic links and `..` included), the rest
+/// appended with `.` and `..` applied, since a directory still to be made
+/// holds no links. Two paths to one file resolve alike.
+pub fn resolved_path(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let components: Vec<Component> = absolute.components().collect();
+    for existing in (1..=components.len()).rev() {
+        let Ok(mut resolved) = components[..existing]
+            .iter()
+            .collect::<PathBuf>()
+            .canonicalize()
+        else {
+            continue;
+        };
+        for c in &components[existing..] {
+            match c {
+                Component::ParentDir => {
+                    resolved.pop();
+                }
+                Component::CurDir => {}
+                other => resolved.push(other),
+            }
+        }
+        return resolved;
+    }
+    absolute
+}
+
+/// Refuses a list of a command's output files in which two name the same
+/// file, which would leave only the later write.
+pub fn check_distinct_outputs(outputs: &[(&str, PathBuf)]) -> Result<(), String> {
+    for (i, (what_a, a)) in outputs.iter().enumerate() {
+        for (what_b, b) in &outputs[..i] {
+            if resolved_path(a) == resolved_path(b) {
+                return Err(format!(
+                    "{what_b} and {what_a} both name '{}'; one would replace the other",
+                    a.display()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Writes `bytes` to `path` through a temporary file beside it, so that a
 /// failed write never leaves a truncated file in its place.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {

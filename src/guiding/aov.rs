@@ -19,15 +19,21 @@ pub fn alpha_aov(scene: &Scene, tree: &SdTree) -> Vec<Option<f32>> {
         .collect()
 }
 
+/// The EXR and PNG paths [`write_alpha_aov`] writes for the render `out`.
+pub fn alpha_aov_paths(out: &Path) -> (PathBuf, PathBuf) {
+    let stem = out.with_extension("");
+    let exr = PathBuf::from(format!("{}-alpha.exr", stem.display()));
+    let png = exr.with_extension("png");
+    (exr, png)
+}
+
 /// Writes [`alpha_aov`] next to the render `out` as `OUT-alpha.exr` (α in
 /// every channel, 0 where there is no vertex) and a false-colour PNG
 /// (black there).
 pub fn write_alpha_aov(scene: &Scene, tree: &SdTree, out: &Path) -> Result<(), String> {
     let alpha = alpha_aov(scene, tree);
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let stem = out.with_extension("");
-    let exr = PathBuf::from(format!("{}-alpha.exr", stem.display()));
-    let png = exr.with_extension("png");
+    let (exr, png) = alpha_aov_paths(out);
     let values: Vec<glam::Vec3> = alpha
         .iter()
         .map(|a| glam::Vec3::splat(a.unwrap_or(0.0)))
