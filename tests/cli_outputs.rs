@@ -376,6 +376,18 @@ fn images_with_non_finite_or_negative_pixels_are_refused() {
         stdout.contains("mean_ratio not computed: a 8×8 image holds 0 whole blocks"),
         "{stdout}"
     );
+    // One pixel has no worst 0.1 %: the other metrics stand and the run
+    // succeeds (it printed them, then failed).
+    let one = dir.join("one.exr");
+    write_rgb(&one, 1, 1, &[glam::Vec3::splat(0.5)]).unwrap();
+    let (code, stdout, err) = run(&["error".as_ref(), one.as_ref(), one.as_ref()]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        stdout.contains("relmse 0.000000e0")
+            && stdout.contains("relmse_worst_0.1% not computed: an image of one pixel has no tail")
+            && stdout.contains("mean_ratio not computed"),
+        "{stdout}"
+    );
     // 64×64 pixels hold 16 blocks: equal images have ratio 1 and z 0; a
     // noiseless image 10 % brighter has ratio 1.1 and no noise to hide it.
     let big = dir.join("big.exr");
