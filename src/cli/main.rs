@@ -358,6 +358,15 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             args.out.display()
         ));
     }
+    if args.method == Method::Pt && args.rr == RouletteMode::Adrrs {
+        // It ran, and played Mitsuba's roulette: path tracing holds no
+        // adjoint estimate for ADRRS to aim at.
+        return Err(
+            "--rr adrrs needs a guide's adjoint estimates, which --method pt has none of; \
+             use --method radiance or product, or --rr classic"
+                .into(),
+        );
+    }
     let alpha_aov = args.aov.contains(&Aov::Alpha);
     if alpha_aov && args.method == Method::Pt {
         return Err(ALPHA_NEEDS_GUIDING.into());
