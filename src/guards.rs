@@ -32,9 +32,12 @@ pub enum GuardEvent {
     /// A light sample whose shadow-ray origin coincided with the sampled
     /// point (or was not finite) left no direction, and was dropped.
     LightSampleDegenerate,
+    /// A quadtree sum or a built cell's radiance passed f32::MAX and was
+    /// held there: the tree stays finite, but that cell lost flux.
+    TreeSumSaturated,
 }
 
-const EVENT_COUNT: usize = 5;
+const EVENT_COUNT: usize = 6;
 
 thread_local! {
     static THREAD_COUNTS: [Cell<u64>; EVENT_COUNT] = const { [const { Cell::new(0) }; EVENT_COUNT] };
@@ -115,12 +118,14 @@ pub struct Guards {
     pub light_samples_degenerate: u64,
     /// Guided iterations left out of the image: their variance was not finite.
     pub iterations_dropped_nonfinite_variance: u64,
+    /// Quadtree sums or built radiances held at f32::MAX (flux lost there).
+    pub tree_sums_saturated: u64,
 }
 
 impl Guards {
     /// Every counter with its name as --stats-json spells it (the one list
     /// `total` and `describe` read, so neither can miss a counter).
-    pub fn entries(&self) -> [(&'static str, u64); 15] {
+    pub fn entries(&self) -> [(&'static str, u64); 16] {
         [
             ("image_nonfinite_samples", self.image_nonfinite_samples),
             ("invalid_scattering", self.invalid_scattering),
@@ -140,6 +145,7 @@ impl Guards {
                 "iterations_dropped_nonfinite_variance",
                 self.iterations_dropped_nonfinite_variance,
             ),
+            ("tree_sums_saturated", self.tree_sums_saturated),
         ]
     }
 
@@ -151,6 +157,7 @@ impl Guards {
             descent_weights_nonfinite: events.get(GuardEvent::DescentWeightsNonfinite),
             ltc_nonfinite: events.get(GuardEvent::LtcNonfinite),
             light_samples_degenerate: events.get(GuardEvent::LightSampleDegenerate),
+            tree_sums_saturated: events.get(GuardEvent::TreeSumSaturated),
             ..self
         }
     }
@@ -215,6 +222,7 @@ mod tests {
             GuardEvent::LobeWeightInvalid,
             GuardEvent::BsdfNegative,
             GuardEvent::LightSampleDegenerate,
+            GuardEvent::TreeSumSaturated,
         ];
         let own_before = thread_count(GuardEvent::BsdfNegative);
         record(GuardEvent::BsdfNegative, 7);
@@ -234,7 +242,8 @@ mod tests {
         for (i, &e) in events.iter().enumerate() {
             assert_eq!(drained.get(e), 3 * (i as u64 + 1), "{e:?}");
         }
-        assert_eq!(guards.total(), 3 * (1 + 2 + 3 + 4 + 5));
+        assert_eq!(guards.total(), 3 * (1 + 2 + 3 + 4 + 5 + 6));
+        assert_eq!(guards.tree_sums_saturated, 18);
         assert_eq!(guards.ltc_nonfinite, 3);
         assert_eq!(guards.light_samples_degenerate, 15);
         assert_eq!(drain_pool(&pool), EventCounts::default());

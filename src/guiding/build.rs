@@ -62,6 +62,9 @@ impl QuadTreeBuilder {
                 };
                 let radiance = child_flux * inv_norm;
                 out[o].sums[k] = if radiance.is_finite() && radiance > 0.0 {
+                    if radiance > f32::MAX as f64 {
+                        crate::guards::record(crate::guards::GuardEvent::TreeSumSaturated, 1);
+                    }
                     radiance.min(f32::MAX as f64) as f32
                 } else {
                     0.0
@@ -115,6 +118,38 @@ mod tests {
         assert!((integral - 1.0).abs() < 1e-5, "∫L = {integral}, {deep:?}");
         assert!((t.radiance_integral() as f64 - 1.0).abs() < 1e-5);
         assert!(b.build(&QuadTree::new()).is_none());
+    }
+
+    /// One sample of 3e38 recorded into a tree resolved down to depth 5 at
+    /// its point: the cells on its path hold radiance 3e38·4^d/(4π), past
+    /// f32::MAX from depth 2 on. They are held at f32::MAX, finite, and
+    /// every one is counted.
+    #[test]
+    fn radiances_past_the_largest_float_are_held_and_counted() {
+        use crate::guards::{GuardEvent, thread_count};
+        let p = Vec2::new(0.3, 0.3);
+        let mut unit = QuadTree::new();
+        for _ in 0..99 {
+            unit.record(p, 1.0).unwrap();
+        }
+        unit.record(Vec2::new(0.8, 0.8), 1.0).unwrap();
+        let mut rec = QuadTreeBuilder::default()
+            .build(&unit)
+            .unwrap()
+            .structure_copy();
+        assert_eq!(rec.leaf_cell(p).depth, 5);
+        rec.record(p, 3e38).unwrap();
+        let before = thread_count(GuardEvent::TreeSumSaturated);
+        let t = QuadTreeBuilder::default().build(&rec).unwrap();
+        let mut held = 0;
+        t.for_each_leaf(|_, i, k| {
+            let l = t.nodes()[i].sums[k];
+            assert!(l.is_finite() && l >= 0.0, "{l}");
+            held += (l == f32::MAX) as u64;
+        });
+        assert!(held > 0);
+        // Inner cells are held too: at least every held leaf is counted.
+        assert!(thread_count(GuardEvent::TreeSumSaturated) - before >= held);
     }
 
     #[test]

@@ -347,9 +347,16 @@ pub fn child_slot(cell: Cell, p: Vec2) -> usize {
 }
 
 /// Sums never overflow to +∞: a tree must never hold a non-finite value.
+/// The flux lost by holding a sum at f32::MAX is counted.
 #[inline]
 fn saturating_add(a: f32, b: f32) -> f32 {
-    (a + b).min(f32::MAX)
+    let sum = a + b;
+    if sum <= f32::MAX {
+        sum
+    } else {
+        crate::guards::record(crate::guards::GuardEvent::TreeSumSaturated, 1);
+        f32::MAX
+    }
 }
 
 #[cfg(test)]
@@ -394,6 +401,25 @@ mod tests {
         );
         assert_eq!(t.weight(), 2.0);
         assert_eq!(t.total(), 2.0);
+    }
+
+    /// Two finite values whose sum passes f32::MAX: each sum on the path is
+    /// held there, and each is counted, so a tree that lost flux says so.
+    #[test]
+    fn sums_held_at_the_largest_float_are_counted() {
+        use crate::guards::{GuardEvent, thread_count};
+        let mut t = two_level();
+        let before = thread_count(GuardEvent::TreeSumSaturated);
+        t.record(Vec2::new(0.9, 0.6), 2e38).unwrap();
+        assert_eq!(thread_count(GuardEvent::TreeSumSaturated), before);
+        t.record(Vec2::new(0.9, 0.6), 2e38).unwrap();
+        assert_eq!(t.nodes()[0].sums[3], f32::MAX);
+        assert_eq!(t.nodes()[1].sums[1], f32::MAX);
+        // The root's sum and its child's, one each.
+        assert_eq!(thread_count(GuardEvent::TreeSumSaturated), before + 2);
+        t.record_box(Vec2::new(0.9, 0.6), 2e38).unwrap();
+        assert!(thread_count(GuardEvent::TreeSumSaturated) > before + 2);
+        assert!(t.total().is_finite());
     }
 
     #[test]
