@@ -241,6 +241,126 @@ const BAD: &[(&str, &str, u32, &str)] = &[
         "missing attribute 'id'",
     ),
     ("bad_lookat.xml", "bad_lookat.xml", 9, "degenerate lookat"),
+    ("no_fov.xml", "no_fov.xml", 6, "needs 'fov'"),
+    (
+        "rotate_not_unit.xml",
+        "rotate_not_unit.xml",
+        23,
+        "unit length",
+    ),
+    (
+        "matrix_last_row.xml",
+        "matrix_last_row.xml",
+        23,
+        "last row of a matrix must be 0 0 0 1",
+    ),
+    (
+        "duplicate_property.xml",
+        "duplicate_property.xml",
+        23,
+        "given twice",
+    ),
+    (
+        "nameless_property.xml",
+        "nameless_property.xml",
+        23,
+        "missing attribute 'name'",
+    ),
+    ("two_films.xml", "two_films.xml", 14, "more than one <film>"),
+    (
+        "point_value.xml",
+        "point_value.xml",
+        23,
+        "attribute 'value' is not part",
+    ),
+    (
+        "scale_value.xml",
+        "scale_value.xml",
+        23,
+        "attribute 'value' is not part",
+    ),
+    (
+        "unknown_attribute.xml",
+        "unknown_attribute.xml",
+        23,
+        "attribute 'units'",
+    ),
+    (
+        "emitter_child.xml",
+        "emitter_child.xml",
+        23,
+        "inside an emitter",
+    ),
+    (
+        "envmap_child.xml",
+        "envmap_child.xml",
+        23,
+        "inside an emitter",
+    ),
+    (
+        "integrator_child.xml",
+        "integrator_child.xml",
+        4,
+        "inside an integrator",
+    ),
+    (
+        "texture_child.xml",
+        "texture_child.xml",
+        23,
+        "inside a texture",
+    ),
+    ("film_child.xml", "film_child.xml", 13, "inside a film"),
+    (
+        "sampler_child.xml",
+        "sampler_child.xml",
+        14,
+        "inside a sampler",
+    ),
+    (
+        "sampler_type.xml",
+        "sampler_type.xml",
+        14,
+        "unsupported sampler type",
+    ),
+    (
+        "obj_flattened.xml",
+        "obj_flattened.xml",
+        23,
+        "zero area in world space",
+    ),
+    (
+        "obj_mixed_vt.xml",
+        "mixed_vt.obj",
+        15,
+        "with texture coordinates",
+    ),
+    (
+        "obj_vn_unindexed.xml",
+        "vn_unindexed.obj",
+        8,
+        "no normal indices",
+    ),
+    (
+        "checker_matrix.xml",
+        "checker_matrix.xml",
+        23,
+        "pure 2D scale",
+    ),
+    ("envmap_png.xml", "envmap_png.xml", 23, "must be an EXR"),
+    (
+        "empty_list_entry.xml",
+        "empty_list_entry.xml",
+        23,
+        "empty entry",
+    ),
+    (
+        "rectangle_rotate.xml",
+        "rectangle_rotate.xml",
+        23,
+        "'to_world' must be a <matrix>",
+    ),
+    ("obj_no_normals.xml", "tiny.obj", 5, "needs vn normals"),
+    ("obj_statement.xml", "polyline.obj", 7, "'l' statements"),
 ];
 
 #[test]
@@ -410,4 +530,19 @@ fn a_scene_folder_loads_its_scene_xml() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("cornell-glossy"));
+}
+
+/// The operations the subset allows still load where it allows them: a unit
+/// rotate axis on an envmap, a pure-scale matrix as a checkerboard's to_uv,
+/// faces that all carry vt and vn.
+#[test]
+fn the_subset_forms_next_to_the_refused_ones_load() {
+    let xml = r#"<scene version="3.0.0">
+<sensor type="perspective"><float name="fov" value="40"/></sensor>
+<emitter type="envmap"><string name="filename" value="sky.exr"/><transform name="to_world"><rotate x="0.6" y="0.8" angle="30"/></transform></emitter>
+<shape type="obj"><string name="filename" value="../ok/quad.obj"/><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><transform name="to_uv"><matrix value="4 0 0 0 0 2 0 0 0 0 1 0 0 0 0 1"/></transform></texture></bsdf></shape>
+</scene>"#;
+    let scene = load_scene_from_str(xml, &data("bad/subset.xml")).expect("loads");
+    assert_eq!(scene.triangle_count(), 2);
+    assert!(scene.lights.has_infinite());
 }

@@ -82,7 +82,7 @@ fn a_carriage_return_quoted_by_the_xml_parser_stays_on_one_line() {
 }
 
 const HEAD: &str = r#"<scene version="3.0.0">
-<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
 "#;
 const LIGHT: &str = r#"<bsdf type="diffuse"/><emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>"#;
 
@@ -105,7 +105,7 @@ fn geometry_beyond_the_coordinate_limit_is_a_located_error() {
         ),
         (
             "obj",
-            r#"<string name="filename" value="mesh.obj"/>"#,
+            r#"<string name="filename" value="mesh.obj"/><boolean name="face_normals" value="true"/>"#,
             big_obj,
         ),
     ];
@@ -124,7 +124,7 @@ fn geometry_beyond_the_coordinate_limit_is_a_located_error() {
 fn geometry_inside_the_coordinate_limit_loads_with_its_light() {
     let obj = b"v 9e8 -9e8 0\nv -9e8 9e8 0\nv 0 0 9e8\nv 9e8 9e8 9e8\nf 1 2 3\nf 2 3 4\n";
     let xml = format!(
-        "{HEAD}<shape type=\"obj\"><string name=\"filename\" value=\"mesh.obj\"/>{LIGHT}</shape>\n</scene>\n"
+        "{HEAD}<shape type=\"obj\"><string name=\"filename\" value=\"mesh.obj\"/><boolean name=\"face_normals\" value=\"true\"/>{LIGHT}</shape>\n</scene>\n"
     );
     let dir = work_dir("inside", obj);
     let scene = load_scene_from_str(&xml, &dir.join("scene.xml")).expect("loads");

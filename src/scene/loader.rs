@@ -5,8 +5,8 @@
 
 use super::error::SceneError;
 use super::obj::{ObjOptions, load_obj};
-use super::shapes::{ShapeTriangle, cube, rectangle};
-use super::xml::{Properties, XmlContext};
+use super::shapes::{ShapeTriangle, cube, first_degenerate, rectangle};
+use super::xml::{Properties, XmlContext, check_document};
 use super::{Scene, Shape, TriangleShading};
 use crate::accel::{Accel, PrimGeom};
 use crate::bsdf::Material;
@@ -54,6 +54,7 @@ pub fn load_scene_from_str(text: &str, path: &Path) -> Result<Scene, SceneError>
         SceneError::new(path, row, "xml", format!("malformed XML: {e}"))
     })?;
     let ctx = XmlContext::new(path, &doc);
+    check_document(&ctx, doc.root_element())?;
     let mut builder = Builder::new(&ctx);
     builder.scene(doc.root_element())?;
     builder.finish(path)
@@ -172,6 +173,7 @@ impl<'a> Builder<'a> {
             }
         };
         props.warn_unused();
+        ctx.only_properties(node, "an integrator", &[])?;
         Ok(())
     }
 
@@ -185,8 +187,14 @@ impl<'a> Builder<'a> {
             ));
         }
         let props = Properties::new(ctx, node);
-        // Mitsuba's default is a 50 mm lens on 36 mm film.
-        let fov = props.float("fov", (2.0 * (18.0f32 / 50.0).atan()).to_degrees())?;
+        // The scene format gives no default; Mitsuba's (50 mm lens on the
+        // 36×24 mm diagonal) depends on the aspect, so a guess could misframe.
+        let fov = props.float_opt("fov")?.ok_or_else(|| {
+            ctx.error(
+                node,
+                "a perspective sensor needs 'fov': the scene format defines no default",
+            )
+        })?;
         if !(fov > 0.0 && fov < 180.0) {
             return Err(ctx.error(node, format!("fov must be in (0, 180) degrees, got {fov}")));
         }
@@ -201,13 +209,22 @@ impl<'a> Builder<'a> {
             },
         };
         let to_world = props
-            .transform("to_world")?
+            .transform("to_world", &["matrix", "lookat"])?
             .map(|t| t.0)
             .unwrap_or(Mat4::IDENTITY);
         props.warn_unused();
         let (mut width, mut height) = (768usize, 576usize);
+        let mut seen: Vec<&str> = Vec::new();
         for child in node.children().filter(|c| c.is_element()) {
-            match child.tag_name().name() {
+            let tag = child.tag_name().name();
+            // A second film or sampler could only override the first one.
+            if matches!(tag, "film" | "sampler") {
+                if seen.contains(&tag) {
+                    return Err(ctx.error(child, format!("more than one <{tag}> in <sensor>")));
+                }
+                seen.push(tag);
+            }
+            match tag {
                 "film" => {
                     let ty = ctx.required_attr(child, "type")?;
                     if ty != "hdrfilm" {
@@ -224,6 +241,7 @@ impl<'a> Builder<'a> {
                     }
                     (width, height) = (w as usize, h as usize);
                     fp.warn_unused();
+                    ctx.only_properties(child, "a film", &["rfilter"])?;
                     for f in child
                         .children()
                         .filter(|c| c.is_element() && c.tag_name().name() == "rfilter")
@@ -232,10 +250,18 @@ impl<'a> Builder<'a> {
                     }
                 }
                 "sampler" => {
+                    let ty = ctx.required_attr(child, "type")?;
+                    if ty != "independent" {
+                        return Err(ctx.error(
+                            child,
+                            format!("unsupported sampler type '{ty}' (only 'independent')"),
+                        ));
+                    }
                     // The sample count is informational: spp comes from the command line.
                     let sp = Properties::new(ctx, child);
                     sp.integer("sample_count", 4)?;
                     sp.warn_unused();
+                    ctx.only_properties(child, "a sampler", &[])?;
                 }
                 tag if super::xml::PROPERTY_TAGS.contains(&tag) => {}
                 other => {
@@ -252,7 +278,7 @@ impl<'a> Builder<'a> {
         let ctx = self.ctx;
         let ty = ctx.required_attr(node, "type")?;
         let props = Properties::new(ctx, node);
-        let to_world = props.transform("to_world")?;
+        let to_world = props.transform("to_world", &["matrix"])?;
         let flip = props.boolean("flip_normals", false)?;
         let mut material = None;
         let mut emitter = None;
@@ -295,6 +321,7 @@ impl<'a> Builder<'a> {
                         return Err(ctx.error(child, "radiance must not be negative"));
                     }
                     ep.warn_unused();
+                    ctx.only_properties(child, "an emitter", &[])?;
                     emitter = Some(radiance);
                 }
                 tag if super::xml::PROPERTY_TAGS.contains(&tag) => {}
@@ -362,13 +389,6 @@ impl<'a> Builder<'a> {
                         t.uv.swap(1, 2);
                     }
                 }
-                for (i, t) in tris.iter().enumerate() {
-                    if (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length_squared() == 0.0 {
-                        return Err(
-                            ctx.error(node, format!("transform makes triangle {i} degenerate"))
-                        );
-                    }
-                }
                 tris
             }
             "sphere" => {
@@ -391,6 +411,12 @@ impl<'a> Builder<'a> {
             }
             other => return Err(ctx.error(node, format!("unsupported shape type '{other}'"))),
         };
+        // The OBJ check runs before to_world, which can still flatten a triangle.
+        if let Some(i) = first_degenerate(&triangles) {
+            let msg =
+                format!("triangle {i} has zero area in world space (degenerate after to_world)");
+            return Err(ctx.error(node, msg));
+        }
         // Finite numbers can still overflow f32 once transformed, and the
         // BVH build panics on infinite bounds or surface areas.
         let too_far = |v: Vec3| !(v.abs().max_element() <= MAX_COORDINATE);
@@ -432,10 +458,18 @@ impl<'a> Builder<'a> {
                     return Err(ctx.error(node, "envmap scale must not be negative"));
                 }
                 let to_world = props
-                    .transform("to_world")?
+                    .transform("to_world", &["matrix", "rotate"])?
                     .map(|t| t.0)
                     .unwrap_or(Mat4::IDENTITY);
                 let path = ctx.resolve_path(fnode, &file)?;
+                // Only EXR is linear: an 8-bit image would need a transfer
+                // function the format does not define for envmaps.
+                if !path
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+                {
+                    return Err(ctx.error(fnode, "an envmap must be an EXR file"));
+                }
                 let img = self.image(&path, true, fnode)?;
                 Light::Env(EnvMap::new(
                     (*img).clone(),
@@ -456,6 +490,7 @@ impl<'a> Builder<'a> {
             other => return Err(ctx.error(node, format!("unsupported emitter type '{other}'"))),
         };
         props.warn_unused();
+        ctx.only_properties(node, "an emitter", &[])?;
         self.infinite_lights.push(light);
         Ok(())
     }

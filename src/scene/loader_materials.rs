@@ -6,7 +6,7 @@ use super::xml::Properties;
 use crate::bsdf::{ConductorFresnel, Material, MaterialKind};
 use crate::math::Spectrum;
 use crate::texture::{RgbImage, Texture, load_bitmap, load_image};
-use glam::Vec2;
+use glam::{Mat4, Vec2, Vec3};
 use roxmltree::Node;
 use std::path::Path;
 use std::sync::Arc;
@@ -70,19 +70,20 @@ impl Builder<'_> {
                 if c0.min_element() < 0.0 || c1.min_element() < 0.0 {
                     return Err(ctx.error(node, "checkerboard colours must not be negative"));
                 }
-                let scale = match props.transform("to_uv")? {
+                let scale = match props.transform("to_uv", &["scale", "matrix"])? {
                     None => Vec2::ONE,
                     Some((m, n)) => {
-                        // The subset allows only a scale here.
-                        let s = Vec2::new(m.x_axis.x, m.y_axis.y);
-                        if m.x_axis.y != 0.0
-                            || m.y_axis.x != 0.0
-                            || m.w_axis.x != 0.0
-                            || m.w_axis.y != 0.0
-                        {
-                            return Err(ctx.error(n, "checkerboard to_uv must be a <scale>"));
+                        // The texture keeps only sx and sy, so any other
+                        // entry (z scale included) would be dropped silently.
+                        let pure = Mat4::from_scale(Vec3::new(m.x_axis.x, m.y_axis.y, 1.0));
+                        let off = (m - pure).to_cols_array();
+                        if off.iter().any(|v| v.abs() > 1e-6) {
+                            return Err(ctx.error(
+                                n,
+                                "checkerboard to_uv must be a <scale> (a pure 2D scale)",
+                            ));
                         }
-                        s
+                        Vec2::new(m.x_axis.x, m.y_axis.y)
                     }
                 };
                 Texture::Checkerboard {
@@ -94,6 +95,7 @@ impl Builder<'_> {
             other => return Err(ctx.error(node, format!("unsupported texture type '{other}'"))),
         };
         props.warn_unused();
+        ctx.only_properties(node, "a texture", &[])?;
         Ok(tex)
     }
 
@@ -277,12 +279,7 @@ impl Builder<'_> {
             other => return Err(ctx.error(node, format!("unsupported bsdf type '{other}'"))),
         };
         props.warn_unused();
-        for child in node.children().filter(|c| c.is_element()) {
-            let tag = child.tag_name().name();
-            if !super::xml::PROPERTY_TAGS.contains(&tag) {
-                return Err(ctx.error(child, format!("unexpected <{tag}> inside a bsdf")));
-            }
-        }
+        ctx.only_properties(node, "a bsdf", &[])?;
         Material::new(kind, false).map_err(|e| ctx.error(node, e))
     }
 }

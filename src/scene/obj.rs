@@ -19,7 +19,7 @@ pub fn load_obj(path: &Path, opts: &ObjOptions) -> Result<Vec<ShapeTriangle>, Sc
     let text =
         std::fs::read_to_string(path).map_err(|e| whole(format!("cannot read mesh: {e}")))?;
     // Checks with line numbers first: tobj reports neither lines nor NaN.
-    scan_obj_text(path, &text)?;
+    scan_obj_text(path, &text, opts.face_normals)?;
     let load_opts = tobj::LoadOptions {
         single_index: true,
         triangulate: false,
@@ -140,9 +140,13 @@ fn face_error(path: &Path, text: &str, face: usize, msg: &str) -> SceneError {
 
 /// Line-level validation: every number finite, every face index within the
 /// vertices declared so far (OBJ indices are 1-based; negative ones count
-/// back from the last vertex).
-fn scan_obj_text(path: &Path, text: &str) -> Result<(), SceneError> {
+/// back from the last vertex), and faces that agree on which attributes
+/// they index.
+fn scan_obj_text(path: &Path, text: &str, face_normals: bool) -> Result<(), SceneError> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    // (line, has vt) of the first face, and the first face without normals.
+    let mut first_face: Option<(u32, bool)> = None;
+    let mut face_without_vn: Option<u32> = None;
     for (i, line) in text.lines().enumerate() {
         let lineno = i as u32 + 1;
         let mut it = line.split_whitespace();
@@ -177,6 +181,29 @@ fn scan_obj_text(path: &Path, text: &str) -> Result<(), SceneError> {
                         corners.len()
                     )));
                 }
+                let has = |k: usize, c: &&str| c.split('/').nth(k).is_some_and(|p| !p.is_empty());
+                let (vt, vn) = (has(1, &corners[0]), has(2, &corners[0]));
+                if corners.iter().any(|c| has(1, c) != vt || has(2, c) != vn) {
+                    return Err(err(
+                        "the corners of a face must all have, or all lack, texture coordinate and normal indices".into(),
+                    ));
+                }
+                // tobj would shift the coordinates of the faces that have
+                // them onto the wrong vertices, and the scene format defines
+                // no per-face fallback within one mesh.
+                match first_face {
+                    None => first_face = Some((lineno, vt)),
+                    Some((first, first_vt)) if first_vt != vt => {
+                        let (with, without) = if vt { (lineno, first) } else { (first, lineno) };
+                        return Err(err(format!(
+                            "faces with texture coordinates (line {with}) and without (line {without}) in one mesh are not supported"
+                        )));
+                    }
+                    Some(_) => {}
+                }
+                if !vn && face_without_vn.is_none() {
+                    face_without_vn = Some(lineno);
+                }
                 for c in corners {
                     for (k, part) in c.split('/').enumerate() {
                         if part.is_empty() {
@@ -196,8 +223,33 @@ fn scan_obj_text(path: &Path, text: &str) -> Result<(), SceneError> {
                     }
                 }
             }
-            _ => {}
+            // Lines, points, groups, materials…: tobj would drop or
+            // reinterpret them, so the mesh would not be the file's.
+            t if t.starts_with('#') => {}
+            other => {
+                return Err(err(format!(
+                    "'{other}' statements are not part of the scene format (only v, vt, vn, f and comments)"
+                )));
+            }
         }
+    }
+    // The format's smooth shading interpolates the file's vn; a face that
+    // indexes none would silently be shaded flat instead (Mitsuba would
+    // compute its own vertex normals, which the format leaves undefined).
+    if let Some(line) = face_without_vn
+        && !face_normals
+    {
+        let msg = if nvn > 0 {
+            "the file has vn normals but this face has no normal indices"
+        } else {
+            "smooth shading needs vn normals, and the file has none"
+        };
+        return Err(SceneError::new(
+            path,
+            line,
+            "f",
+            format!("{msg} (use face_normals=\"true\" for flat shading)"),
+        ));
     }
     Ok(())
 }

@@ -12,6 +12,13 @@ pub struct ShapeTriangle {
     pub uv: [Vec2; 3],
 }
 
+/// The first triangle with zero area in f32: the light sampler drops such
+/// triangles, so an emitter made of them would vanish without a word.
+pub fn first_degenerate(tris: &[ShapeTriangle]) -> Option<usize> {
+    tris.iter()
+        .position(|t| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length_squared() == 0.0)
+}
+
 /// Applies `to_world` to a local triangle whose intended normal is `local_n`,
 /// keeping the winding consistent with the transformed normal (a mirroring
 /// transform would otherwise turn the triangle's geometric normal around).

@@ -83,10 +83,40 @@ impl<'a> XmlContext<'a> {
 
     /// A list of numbers separated by commas and/or white space.
     pub fn numbers(&self, node: Node, text: &str) -> Result<Vec<f32>, SceneError> {
-        text.split(|c: char| c == ',' || c.is_whitespace())
-            .filter(|s| !s.is_empty())
-            .map(|s| self.number(node, s))
-            .collect()
+        let parts: Vec<&str> = text.split(',').collect();
+        let mut out = Vec::new();
+        for part in &parts {
+            // "0.1,,0.2" is a typo, not two numbers: counting it as such
+            // would hide a missing value behind a plausible count.
+            if parts.len() > 1 && part.trim().is_empty() {
+                return Err(self.error(
+                    node,
+                    format!("empty entry in the number list '{}'", text.trim()),
+                ));
+            }
+            for s in part.split_whitespace() {
+                out.push(self.number(node, s)?);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Children other than properties (and the `extra` tags the caller
+    /// handles itself) are outside the subset: refused rather than skipped,
+    /// since skipping one would silently change the scene.
+    pub fn only_properties(
+        &self,
+        node: Node,
+        inside: &str,
+        extra: &[&str],
+    ) -> Result<(), SceneError> {
+        for child in node.children().filter(|c| c.is_element()) {
+            let tag = child.tag_name().name();
+            if !PROPERTY_TAGS.contains(&tag) && !extra.contains(&tag) {
+                return Err(self.error(child, format!("unexpected <{tag}> inside {inside}")));
+            }
+        }
+        Ok(())
     }
 
     pub fn vec3_attr(&self, node: Node, key: &str) -> Result<Vec3, SceneError> {
@@ -229,10 +259,16 @@ impl<'a, 'n> Properties<'a, 'n> {
         self.find(name)
     }
 
-    pub fn transform(&self, name: &str) -> Result<Option<(Mat4, Node<'n, 'n>)>, SceneError> {
+    /// A transform whose operation must be one of `ops`: the subset fixes
+    /// which operations each plugin takes.
+    pub fn transform(
+        &self,
+        name: &str,
+        ops: &[&str],
+    ) -> Result<Option<(Mat4, Node<'n, 'n>)>, SceneError> {
         match self.typed(name, "transform")? {
             None => Ok(None),
-            Some(n) => Ok(Some((parse_transform(self.ctx, n)?, n))),
+            Some(n) => Ok(Some((parse_transform(self.ctx, n, name, ops)?, n))),
         }
     }
 
@@ -256,8 +292,13 @@ impl<'a, 'n> Properties<'a, 'n> {
     }
 }
 
-/// A `<transform>` holds exactly one operation of the subset.
-pub fn parse_transform(ctx: &XmlContext, node: Node) -> Result<Mat4, SceneError> {
+/// A `<transform>` holds exactly one operation of the subset, one of `ops`.
+pub fn parse_transform(
+    ctx: &XmlContext,
+    node: Node,
+    name: &str,
+    ops_allowed: &[&str],
+) -> Result<Mat4, SceneError> {
     let ops: Vec<Node> = node.children().filter(|c| c.is_element()).collect();
     if ops.len() != 1 {
         return Err(ctx.error(
@@ -269,11 +310,30 @@ pub fn parse_transform(ctx: &XmlContext, node: Node) -> Result<Mat4, SceneError>
         ));
     }
     let op = ops[0];
-    let m = match op.tag_name().name() {
+    let tag = op.tag_name().name();
+    if !ops_allowed.contains(&tag) {
+        let list: Vec<String> = ops_allowed.iter().map(|o| format!("<{o}>")).collect();
+        return Err(ctx.error(
+            op,
+            format!("'{name}' must be a {}, not <{tag}>", list.join(" or ")),
+        ));
+    }
+    let m = match tag {
         "matrix" => {
             let v = ctx.numbers(op, ctx.required_attr(op, "value")?)?;
             if v.len() != 16 {
                 return Err(ctx.error(op, format!("a matrix needs 16 numbers, got {}", v.len())));
+            }
+            // A projective last row would be dropped by every point and
+            // normal transform below, so the scene would not be the one given.
+            if v[12..] != [0.0, 0.0, 0.0, 1.0] {
+                return Err(ctx.error(
+                    op,
+                    format!(
+                        "the last row of a matrix must be 0 0 0 1, got {} {} {} {}",
+                        v[12], v[13], v[14], v[15]
+                    ),
+                ));
             }
             // Row-major in the file, column-major in glam.
             Mat4::from_cols(
@@ -306,9 +366,17 @@ pub fn parse_transform(ctx: &XmlContext, node: Node) -> Result<Mat4, SceneError>
         "rotate" => {
             let axis = ctx.xyz_attrs(op, 0.0)?;
             let angle = ctx.number(op, ctx.required_attr(op, "angle")?)?;
-            if axis.length_squared() == 0.0 {
-                return Err(ctx.error(op, "rotation axis is zero"));
+            // Mitsuba 3.9.1 uses the axis as given, and Rodrigues' formula
+            // with a non-unit axis is no rotation (nor defined by the scene
+            // format), so only unit axes have a meaning both agree on.
+            let len = axis.length();
+            if !((len - 1.0).abs() <= 1e-4) {
+                return Err(ctx.error(
+                    op,
+                    format!("rotation axis must have unit length (Mitsuba does not normalise it), got length {len}"),
+                ));
             }
+            // Within the tolerance: keeps the matrix a rotation.
             Mat4::from_axis_angle(axis.normalize(), angle.to_radians())
         }
         "scale" => {
@@ -322,4 +390,63 @@ pub fn parse_transform(ctx: &XmlContext, node: Node) -> Result<Mat4, SceneError>
         return Err(ctx.error(op, "transform is singular"));
     }
     Ok(m)
+}
+
+/// The attributes each element of the subset may carry. Anything else (a
+/// `value` on a `<point>`, `units="cm"`) would otherwise be read as absent.
+fn allowed_attributes(tag: &str) -> Option<&'static [&'static str]> {
+    Some(match tag {
+        "scene" => &["version"],
+        "integrator" | "sensor" | "film" | "sampler" | "emitter" | "shape" | "rfilter" => &["type"],
+        "bsdf" => &["type", "id"],
+        "texture" => &["type", "name"],
+        "ref" => &["id"],
+        "float" | "integer" | "boolean" | "string" | "rgb" => &["name", "value"],
+        "point" => &["name", "x", "y", "z"],
+        "transform" => &["name"],
+        "matrix" => &["value"],
+        "lookat" => &["origin", "target", "up"],
+        "rotate" => &["x", "y", "z", "angle"],
+        "scale" => &["x", "y"],
+        // Unknown elements are refused where they occur, naming their parent.
+        _ => return None,
+    })
+}
+
+/// Checks the whole document before it is interpreted: unknown attributes,
+/// properties without a name (which no lookup can reach) and properties
+/// given twice (where only one could win) are refused.
+pub fn check_document(ctx: &XmlContext, root: Node) -> Result<(), SceneError> {
+    for node in root.descendants().filter(|n| n.is_element()) {
+        let tag = node.tag_name().name();
+        if let Some(allowed) = allowed_attributes(tag) {
+            for a in node.attributes() {
+                if !allowed.contains(&a.name()) {
+                    return Err(ctx.error(
+                        node,
+                        format!(
+                            "attribute '{}' is not part of the scene format on <{tag}> (allowed: {})",
+                            a.name(),
+                            allowed.join(", ")
+                        ),
+                    ));
+                }
+            }
+        }
+        let mut seen: Vec<(&str, u32)> = Vec::new();
+        for prop in node
+            .children()
+            .filter(|c| c.is_element() && PROPERTY_TAGS.contains(&c.tag_name().name()))
+        {
+            let name = ctx.required_attr(prop, "name")?;
+            if let Some((_, line)) = seen.iter().find(|(n, _)| *n == name) {
+                return Err(ctx.error(
+                    prop,
+                    format!("property '{name}' is given twice (first on line {line})"),
+                ));
+            }
+            seen.push((name, ctx.line(prop)));
+        }
+    }
+    Ok(())
 }
