@@ -209,7 +209,9 @@ impl<'a> Builder<'a> {
             },
         };
         let to_world = props
-            .transform("to_world", &["matrix", "lookat"])?
+            // A scale would stretch the rays' directions, which Mitsuba
+            // refuses for sensors too.
+            .transform("to_world", &["matrix", "lookat", "rotate"])?
             .map(|t| t.0)
             .unwrap_or(Mat4::IDENTITY);
         props.warn_unused();
@@ -278,7 +280,9 @@ impl<'a> Builder<'a> {
         let ctx = self.ctx;
         let ty = ctx.required_attr(node, "type")?;
         let props = Properties::new(ctx, node);
-        let to_world = props.transform("to_world", &["matrix"])?;
+        // The pack's shapes use `matrix`; the other operations are exact
+        // too, and Mitsuba's scenes use them on shapes.
+        let to_world = props.transform("to_world", &["matrix", "lookat", "rotate", "scale"])?;
         let flip = props.boolean("flip_normals", false)?;
         let mut material = None;
         let mut emitter = None;
@@ -458,7 +462,7 @@ impl<'a> Builder<'a> {
                     return Err(ctx.error(node, "envmap scale must not be negative"));
                 }
                 let to_world = props
-                    .transform("to_world", &["matrix", "rotate"])?
+                    .transform("to_world", &["matrix", "rotate", "lookat"])?
                     .map(|t| t.0)
                     .unwrap_or(Mat4::IDENTITY);
                 let path = ctx.resolve_path(fnode, &file)?;

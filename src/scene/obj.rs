@@ -223,12 +223,16 @@ fn scan_obj_text(path: &Path, text: &str, face_normals: bool) -> Result<(), Scen
                     }
                 }
             }
-            // Lines, points, groups, materials…: tobj would drop or
+            // Objects, groups, smoothing groups and materials only split the
+            // file into models, whose triangles are all read (materials come
+            // from the scene), as in Mitsuba.
+            "o" | "g" | "s" | "usemtl" | "mtllib" => {}
+            // Lines, points, free-form geometry…: tobj would drop or
             // reinterpret them, so the mesh would not be the file's.
             t if t.starts_with('#') => {}
             other => {
                 return Err(err(format!(
-                    "'{other}' statements are not part of the scene format (only v, vt, vn, f and comments)"
+                    "'{other}' statements are not part of the scene format (only v, vt, vn, f, o, g, s, usemtl, mtllib and comments)"
                 )));
             }
         }

@@ -407,7 +407,7 @@ fn allowed_attributes(tag: &str) -> Option<&'static [&'static str]> {
         "matrix" => &["value"],
         "lookat" => &["origin", "target", "up"],
         "rotate" => &["x", "y", "z", "angle"],
-        "scale" => &["x", "y"],
+        "scale" => &["x", "y", "z"],
         // Unknown elements are refused where they occur, naming their parent.
         _ => return None,
     })
