@@ -30,8 +30,10 @@ struct Cli {
 enum Command {
     /// Render a scene to an EXR and a PNG preview.
     Render(RenderArgs),
-    /// Print MAE and relMSE of an image against a reference (DESIGN.md §6), and the share of
-    /// relMSE in the worst 0.1 % of pixels with relMSE over the rest (fireflies or broad noise).
+    /// Print MAE and relMSE of an image against a reference (DESIGN.md §6), the share of
+    /// relMSE in the worst 0.1 % of pixels with relMSE over the rest (fireflies or broad noise),
+    /// and the ratio of the image's mean to the reference's with its z-score from 16×16-pixel
+    /// blocks (bias beyond the noise of both images).
     Error { image: PathBuf, reference: PathBuf },
     /// Print what a scene contains.
     Info {
@@ -129,7 +131,7 @@ struct RenderArgs {
     /// Scene file (Mitsuba 3 XML subset), or a folder holding scene.xml.
     #[arg(default_value = DEFAULT_SCENE)]
     scene: PathBuf,
-    /// Samples per pixel.
+    /// Samples per pixel (64 when neither --spp nor --time is given).
     #[arg(long, conflicts_with = "time")]
     spp: Option<u32>,
     /// A budget in seconds (of --clock) instead of a sample count.
