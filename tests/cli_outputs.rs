@@ -378,6 +378,27 @@ fn images_with_non_finite_or_negative_pixels_are_refused() {
         stdout.contains("mean_ratio not computed: a 8×8 image holds 0 whole blocks"),
         "{stdout}"
     );
+    // An 8×8 data window at (4, 4) of a 16×16 frame: read from the origin,
+    // its pixels met the wrong ones of an 8×8 reference, and MAE was 0.
+    {
+        use exr::prelude::*;
+        let attributes = LayerAttributes {
+            layer_position: Vec2(4, 4),
+            ..LayerAttributes::default()
+        };
+        let channels = SpecificChannels::rgb(|_: Vec2<usize>| (0.5f32, 0.5f32, 0.5f32));
+        let layer = Layer::new((8, 8), attributes, Encoding::UNCOMPRESSED, channels);
+        let mut image = Image::from_layer(layer);
+        image.attributes.display_window = IntegerBounds::new((0, 0), (16, 16));
+        image.write().to_file(dir.join("window.exr")).unwrap();
+    }
+    let window = dir.join("window.exr");
+    let (code, stdout, err) = run(&["error".as_ref(), window.as_ref(), good.as_ref()]);
+    assert_eq!(code, Some(2), "{stdout}");
+    assert!(
+        err.contains("holds pixels (4, 4)–(11, 11) of a 16×16 frame"),
+        "{err}"
+    );
     // One pixel has no worst 0.1 %: the other metrics stand and the run
     // succeeds (it printed them, then failed).
     let one = dir.join("one.exr");

@@ -26,6 +26,27 @@ pub fn read_rgb(path: &Path) -> Result<RgbImage, String> {
     });
     match result {
         Ok(Ok(image)) => {
+            // A data window that is not the whole display window places its
+            // pixels somewhere in the frame; read from the origin, they
+            // would be compared with the wrong pixels of a reference.
+            let display = image.attributes.display_window;
+            let position = image.layer_data.attributes.layer_position;
+            let size = image.layer_data.size;
+            if position != display.position || size != display.size {
+                return Err(format!(
+                    "EXR '{}' holds pixels ({}, {})–({}, {}) of a {}×{} frame at ({}, {}); \
+                     only images whose data window is the whole display window are read",
+                    path.display(),
+                    position.x(),
+                    position.y(),
+                    position.x() + size.width() as i32 - 1,
+                    position.y() + size.height() as i32 - 1,
+                    display.size.width(),
+                    display.size.height(),
+                    display.position.x(),
+                    display.position.y()
+                ));
+            }
             let img = image.layer_data.channel_data.pixels;
             if img.width == 0 || img.height == 0 {
                 return Err(format!("EXR '{}' is empty", path.display()));
