@@ -474,3 +474,23 @@ fn images_with_non_finite_or_negative_pixels_are_refused() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A method named twice would count each of its runs twice: refused before
+/// the scene is read.
+#[test]
+fn compare_refuses_a_method_named_twice() {
+    let dir = work_dir("twice");
+    let out = dir.join("cmp");
+    let run = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args(["compare", "no-such-scene.xml", "--reference", "no.exr"])
+        .args(["--time", "0.1", "--methods", "pt,radiance,pt", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{err}");
+    assert!(err.contains("pt twice"), "{err}");
+    assert!(!out.exists());
+    assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

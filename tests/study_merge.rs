@@ -322,3 +322,16 @@ fn merge_pools_only_runs_at_the_same_bsdf_fraction_l2() {
         std::fs::remove_dir_all(d).ok();
     }
 }
+
+/// A library caller naming a method twice is refused before the folder is
+/// made, as the command refuses it.
+#[test]
+fn run_compare_refuses_a_method_named_twice() {
+    let dir = temp("twice");
+    let opts = compare_options(vec![Method::Radiance, Method::Pt, Method::Radiance], &dir);
+    match run_compare(&tiny(), &flat_reference(), &opts) {
+        Err(err) => assert!(err.contains("radiance twice"), "{err}"),
+        Ok(_) => panic!("a method named twice was compared"),
+    }
+    assert!(!dir.exists());
+}

@@ -95,6 +95,7 @@ pub fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
 pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     // The arguments first: a bad one fails before a scene is loaded.
     Budget::Seconds(args.time).check()?;
+    ltcguide::experiment::compare::check_methods(&args.methods)?;
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     if let Some(lambda) = args.bsdf_fraction_l2 {
         ltcguide::guiding::adam::check_l2(lambda)?;

@@ -126,6 +126,20 @@ pub fn method_name(m: Method) -> String {
     format!("{m:?}").to_lowercase()
 }
 
+/// Refuses a method named twice: its runs would share run numbers and
+/// seeds, so its curves and tables would count each run twice.
+pub fn check_methods(methods: &[Method]) -> Result<(), String> {
+    for (i, m) in methods.iter().enumerate() {
+        if methods[..i].contains(m) {
+            return Err(format!(
+                "--methods names {} twice: each method is compared once",
+                method_name(*m)
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Snapshot times: geometric from budget/64 to the budget, 3 per doubling.
 pub fn snapshot_times(seconds: f64) -> Vec<f64> {
     SnapshotPlan::geometric(seconds / 64.0, seconds, 3).times
@@ -146,6 +160,7 @@ pub fn run_compare(
     if opts.methods.is_empty() || opts.runs == 0 || !(opts.seconds > 0.0) {
         return Err("compare needs at least one method, one run and a positive time".into());
     }
+    check_methods(&opts.methods)?;
     // Every run of a method differs only in its seed, so checking the first
     // run's options checks them all, before the folder is made.
     for &method in &opts.methods {
