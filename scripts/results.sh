@@ -75,7 +75,7 @@ for scene in $ALL_SCENES; do
   echo "results: $scene" >&2
   "$BIN" compare "$PACK/$scene/scene.xml" --reference "$PACK/$scene/reference.exr" \
     --time "$SECONDS_PER_RUN" --runs "$RUNS" --methods pt,radiance,product --nee "$NEE" --side-by-side "${PLAN_FLAG[@]}" --clock "$CLOCK" \
-    --out "$OUT/$scene" > /dev/null
+    --overwrite --out "$OUT/$scene" > /dev/null
   {
     echo "## $scene"
     echo

@@ -55,7 +55,7 @@ for rr in $ROULETTES; do
     echo "study: $rr $scene" >&2
     "$BIN" compare "$PACK/$scene/scene.xml" --reference "$PACK/$scene/reference.exr" \
       --time "$SECONDS_PER_RUN" --runs "$RUNS" --methods "$methods" --nee all \
-      --guided-rr "$rr" --side-by-side --clock "$CLOCK" --out "$OUT/$rr/$scene" > /dev/null
+      --guided-rr "$rr" --side-by-side --clock "$CLOCK" --overwrite --out "$OUT/$rr/$scene" > /dev/null
     echo "\`roulette_study.sh $SECONDS_PER_RUN $RUNS '$scene' $rr $CLOCK\` finished $(date -u '+%Y-%m-%d %H:%M UTC'), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'), $(nproc) threads, ltcguide $(git rev-parse --short HEAD 2>/dev/null || echo unknown)" > "$OUT/$rr/$scene/RUN"
   done
 done

@@ -475,6 +475,66 @@ fn images_with_non_finite_or_negative_pixels_are_refused() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Runs `compare` on the tiny analytic scene for one run of 0.1 s with
+/// `args`, and returns (exit code, stderr).
+fn compare(args: &[&std::ffi::OsStr]) -> (Option<i32>, String) {
+    let run = Command::new(env!("CARGO_BIN_EXE_ltcguide"))
+        .args(["compare", "tests/data/analytic/sphere_over_plane.xml"])
+        .args(["--time", "0.1", "--runs", "1", "--threads", "1"])
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    (
+        run.status.code(),
+        String::from_utf8_lossy(&run.stderr).into_owned(),
+    )
+}
+
+/// A uniform 64×64 reference (the tiny scene's size) at `path`.
+fn write_reference(path: &Path) {
+    let pixels = vec![glam::Vec3::splat(0.5); 64 * 64];
+    ltcguide::film::exr_io::write_rgb(path, 64, 64, &pixels).unwrap();
+}
+
+/// `compare` never writes over or removes its own reference, whatever
+/// --overwrite says and however the paths are spelt; it refuses before it
+/// renders.
+#[test]
+fn compare_refuses_to_write_over_its_reference() {
+    let dir = work_dir("own-reference");
+    let (reference, cmp) = (dir.join("ref.exr"), dir.join("cmpR"));
+    write_reference(&reference);
+    let (code, err) = compare(&[
+        "--reference".as_ref(),
+        reference.as_os_str(),
+        "--methods".as_ref(),
+        "pt".as_ref(),
+        "--out".as_ref(),
+        cmp.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    std::fs::copy(&reference, cmp.join("radiance.exr")).unwrap();
+    let respelt = dir.join("cmpR/../cmpR");
+    for own in ["pt.exr", "radiance.exr"] {
+        let bytes = std::fs::read(cmp.join(own)).unwrap();
+        let (code, err) = compare(&[
+            "--reference".as_ref(),
+            cmp.join(own).as_os_str(),
+            "--methods".as_ref(),
+            "pt".as_ref(),
+            "--overwrite".as_ref(),
+            "--out".as_ref(),
+            respelt.as_os_str(),
+        ]);
+        assert_eq!(code, Some(2), "{own}: {err}");
+        assert!(err.contains("the reference") && err.contains(own), "{err}");
+        assert!(!err.contains("compare: pt, run"), "rendered first: {err}");
+        assert_eq!(std::fs::read(cmp.join(own)).unwrap(), bytes, "{own}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A method named twice would count each of its runs twice: refused before
 /// the scene is read.
 #[test]
@@ -492,5 +552,35 @@ fn compare_refuses_a_method_named_twice() {
     assert!(err.contains("pt twice"), "{err}");
     assert!(!out.exists());
     assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Every file `compare` will write is checked before the first run: a
+/// summary path that is a directory fails at once, not after every run.
+#[test]
+fn compare_checks_its_outputs_before_the_first_run() {
+    let dir = work_dir("compare-unwritable");
+    let reference = dir.join("ref.exr");
+    write_reference(&reference);
+    for blocked in ["summary.md", "curves.csv", "pt-error.png"] {
+        let out = dir.join(format!("cmp-{blocked}"));
+        std::fs::create_dir_all(out.join(blocked)).unwrap();
+        let (code, err) = compare(&[
+            "--reference".as_ref(),
+            reference.as_os_str(),
+            "--methods".as_ref(),
+            "pt".as_ref(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert_eq!(code, Some(2), "{blocked}: {err}");
+        assert!(
+            err.contains("is a directory") && err.contains(blocked),
+            "{err}"
+        );
+        assert!(!err.contains("compare: pt, run"), "rendered first: {err}");
+        let left: Vec<_> = std::fs::read_dir(&out).unwrap().collect();
+        assert_eq!(left.len(), 1, "{blocked}: {left:?}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -240,6 +240,7 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
     assert!(!merged.summary.contains(COST_HEADING));
     assert!(!out.join(COST_CSV).exists());
     // A runs.csv that lacks a run of curves.csv is refused, nothing written.
+    std::fs::remove_dir_all(&b).unwrap();
     study(&b, 1, 1, 0.2);
     let text = std::fs::read_to_string(b.join(COST_CSV)).unwrap();
     let cut: Vec<&str> = text
@@ -321,6 +322,98 @@ fn merge_pools_only_runs_at_the_same_bsdf_fraction_l2() {
     for d in [a, b, c, pooled] {
         std::fs::remove_dir_all(d).ok();
     }
+}
+
+fn file_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// A folder holding a comparison is refused before any run, its files
+/// untouched; `overwrite` removes exactly the files a comparison writes, so
+/// no image of a method the new study lacks stays beside its summary.
+#[test]
+fn compare_refuses_a_folder_holding_a_comparison_unless_told_to_overwrite() {
+    let dir = temp("occupied");
+    study(&dir, 0, 1, 0.2);
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    let before = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    let names = file_names(&dir);
+    let pt_only = |overwrite| CompareOptions {
+        overwrite,
+        ..compare_options(vec![Method::Pt], &dir)
+    };
+    let err = match run_compare(&tiny(), &flat_reference(), &pt_only(false)) {
+        Err(err) => err,
+        Ok(_) => panic!("a folder holding a comparison was written over"),
+    };
+    assert!(
+        err.contains("already holds a comparison") && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(file_names(&dir), names);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("summary.md")).unwrap(),
+        before
+    );
+    let outcome = run_compare(&tiny(), &flat_reference(), &pt_only(true)).unwrap();
+    assert!(!outcome.summary.contains("radiance"), "{}", outcome.summary);
+    for gone in ["radiance.exr", "radiance.png", "radiance-error.png"] {
+        assert!(!dir.join(gone).exists(), "{gone} stayed");
+    }
+    assert_eq!(
+        std::fs::read_to_string(dir.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    assert!(dir.join("pt.exr").is_file());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// After every run the folder is a whole smaller study: an interrupted
+/// study keeps the runs it finished, and `replot` reads the folder as it
+/// stands.
+#[test]
+fn compare_writes_its_files_after_every_run() {
+    let (dir, seen) = (temp("each-run"), temp("each-run-seen"));
+    let worker = {
+        let dir = dir.clone();
+        std::thread::spawn(move || study(&dir, 0, 3, 0.2))
+    };
+    let summary = dir.join("summary.md");
+    while !summary.exists() && !worker.is_finished() {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // A copy of the folder as the first run left it (each file is written
+    // whole, so a copy never holds half of one).
+    std::fs::create_dir_all(&seen).unwrap();
+    for name in ["summary.md", "runs.csv", "curves.csv", "curves.svg"] {
+        std::fs::copy(dir.join(name), seen.join(name)).unwrap();
+    }
+    let finished = worker.is_finished();
+    worker.join().unwrap();
+    assert!(!finished, "no file was written before the last run ended");
+    let first = std::fs::read_to_string(seen.join("summary.md")).unwrap();
+    assert!(first.contains("1 runs per method (seeds 1000)"), "{first}");
+    assert!(rows_in(&seen).iter().all(|r| r.run == 0));
+    assert!(costs_in(&seen).iter().all(|c| c.run == 0));
+    ltcguide::experiment::replot::replot(&seen).unwrap();
+    assert!(
+        std::fs::read_to_string(seen.join("curves.svg"))
+            .unwrap()
+            .contains("(1 runs)")
+    );
+    assert_eq!(run_numbers_in(&dir), [0, 1, 2]);
+    for d in [dir, seen] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+fn run_numbers_in(dir: &Path) -> Vec<u32> {
+    ltcguide::experiment::curves::run_numbers(&rows_in(dir))
 }
 
 /// A library caller naming a method twice is refused before the folder is

@@ -70,9 +70,15 @@ pub struct CompareArgs {
     /// methods themselves are compared.
     #[arg(long)]
     no_plan: bool,
-    /// Output directory.
+    /// Output directory. One that already holds a comparison is refused
+    /// unless --overwrite is given.
     #[arg(long)]
     out: PathBuf,
+    /// Replace the comparison already in --out: its files (curves, runs,
+    /// summary and every method's images, no other file) are removed before
+    /// the first run, so that none of the earlier study stays beside the new one.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 /// Each method's default setting: PT with NEE and Mitsuba's roulette (the
@@ -121,6 +127,8 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         side_by_side: args.side_by_side,
         use_plan: !args.no_plan,
         progress: true,
+        reference_file: Some(args.reference.clone()),
+        overwrite: args.overwrite,
     };
     let outcome = ltcguide::experiment::compare::run_compare(&scene, &reference, &opts)?;
     println!("{}", outcome.summary);

@@ -5,8 +5,12 @@
 
 use super::colormap::log_scale_rgb;
 use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
-use super::curves::{CurveRow, MeanCurve, mean_curve, parse_csv, to_csv};
+use super::curves::{CurveRow, MeanCurve, mean_curve, parse_csv, run_numbers, to_csv};
 use super::plot::curves_svg;
+use super::study_folder::{
+    check_reference_not_output, check_writable, existing_study, occupied_error,
+    remove_comparison_files,
+};
 use super::summary_text::{
     PLAN_HEADING, SUMMARY_TITLE_SUFFIX, budget_phrase, curves_title, final_errors_table,
     runs_phrase, speedup_section, time_axis_label,
@@ -66,6 +70,12 @@ pub struct CompareOptions {
     /// to path tracing); off: every method runs as such throughout.
     pub use_plan: bool,
     pub progress: bool,
+    /// The reference's file, where there is one: a study must not write
+    /// over the image it measures against.
+    pub reference_file: Option<PathBuf>,
+    /// Replace a comparison already in `out_dir` (its files, no other)
+    /// instead of refusing the folder.
+    pub overwrite: bool,
 }
 
 /// Which methods use next-event estimation in a comparison.
@@ -174,13 +184,23 @@ pub fn run_compare(
             u32::MAX
         ));
     }
-    std::fs::create_dir_all(&opts.out_dir)
-        .map_err(|e| format!("cannot create '{}': {e}", opts.out_dir.display()))?;
+    if let Some(reference) = &opts.reference_file {
+        check_reference_not_output(reference, &opts.out_dir)?;
+    }
+    let existing = existing_study(&opts.out_dir);
+    if !existing.is_empty() && !opts.overwrite {
+        return Err(occupied_error("compare", &opts.out_dir, &existing));
+    }
+    check_writable(&opts.out_dir, &opts.methods)?;
+    if opts.overwrite {
+        remove_comparison_files(&opts.out_dir)?;
+    }
     let mut rows = Vec::new();
     let mut cost_rows = Vec::new();
     // One list per method, so that a method's runs stand together in the summary.
     let mut plan_notes = vec![Vec::new(); opts.methods.len()];
     let mut guard_notes = Vec::new();
+    let mut outcome = None;
     // Runs outer, methods inner: a shared machine's load drifts over a
     // study, and interleaving makes every method's runs meet the same drift
     // instead of one method taking the quiet start and another the busy end.
@@ -273,13 +293,36 @@ pub fn run_compare(
                 write_final_images(&opts.out_dir, &name, &result.image, reference)?;
             }
         }
+        // The folder is a whole smaller study after every run, so that an
+        // interrupted one keeps the runs it finished (and `replot` and
+        // `merge` read it as it stands).
+        outcome = Some(write_study(
+            scene,
+            opts,
+            &rows,
+            &cost_rows,
+            &plan_notes.concat(),
+            &guard_notes,
+        )?);
     }
-    let csv = to_csv(&rows);
+    outcome.ok_or_else(|| "compare ran no run".into())
+}
+
+/// Writes the CSVs, the curves and the summary of the runs so far.
+fn write_study(
+    scene: &Scene,
+    opts: &CompareOptions,
+    rows: &[CurveRow],
+    cost_rows: &[CostRow],
+    notes: &[String],
+    guard_notes: &[String],
+) -> Result<CompareOutcome, String> {
+    let csv = to_csv(rows);
     write_atomic(&opts.out_dir.join("curves.csv"), csv.as_bytes())?;
     // Every figure below comes from the rows as the CSV holds them, so that
     // `replot` recomputes the curves and the summary exactly from the CSV.
     let rows = parse_csv(&csv)?;
-    let cost_csv = to_cost_csv(&cost_rows);
+    let cost_csv = to_cost_csv(cost_rows);
     write_atomic(&opts.out_dir.join(COST_CSV), cost_csv.as_bytes())?;
     let cost_rows = parse_cost_csv(&cost_csv)?;
     let curves: Vec<MeanCurve> = opts
@@ -288,21 +331,12 @@ pub fn run_compare(
         .map(|&m| mean_curve(&rows, &method_name(m)))
         .collect();
     let svg = curves_svg(
-        &curves_title(&scene.name, opts.runs as usize),
+        &curves_title(&scene.name, run_numbers(&rows).len()),
         time_axis_label(opts.time_base),
         &curves,
     )?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
-    let notes = plan_notes.concat();
-    let summary = summary_markdown(
-        scene,
-        opts,
-        &rows,
-        &cost_rows,
-        &curves,
-        &notes,
-        &guard_notes,
-    );
+    let summary = summary_markdown(scene, opts, &rows, &cost_rows, &curves, notes, guard_notes);
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
     Ok(CompareOutcome {
         rows,

@@ -12,4 +12,5 @@ pub mod merge;
 pub mod pixel_classes;
 pub mod plot;
 pub mod replot;
+pub mod study_folder;
 pub mod summary_text;

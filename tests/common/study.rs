@@ -51,6 +51,8 @@ pub fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
         side_by_side: false,
         use_plan: true,
         progress: false,
+        reference_file: None,
+        overwrite: false,
     }
 }
 

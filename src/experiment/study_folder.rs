@@ -1,0 +1,127 @@
+//! A comparison folder's files as `compare` and `merge` own them: which
+//! names they write, and when a folder may be written into.
+
+use super::compare::method_name;
+use super::cost::COST_CSV;
+use crate::film::ensure_writable;
+use crate::render::Method;
+use clap::ValueEnum;
+use std::path::{Path, PathBuf};
+
+/// The files that say what a folder's study is: one of them present means
+/// the folder holds a comparison (or a pooled one).
+pub const STUDY_FILES: [&str; 4] = ["curves.csv", COST_CSV, "curves.svg", "summary.md"];
+
+/// The final-image files of `method` in a comparison folder.
+pub fn image_files(method: Method) -> [String; 3] {
+    let name = method_name(method);
+    [
+        format!("{name}.exr"),
+        format!("{name}.png"),
+        format!("{name}-error.png"),
+    ]
+}
+
+/// Every name a comparison may have written into a folder: its study files
+/// and the images of every method, not only this study's, since a stale
+/// image of another method would stand beside the new summary as its own.
+pub fn comparison_files(dir: &Path) -> Vec<PathBuf> {
+    let images = Method::value_variants()
+        .iter()
+        .flat_map(|&m| image_files(m));
+    STUDY_FILES
+        .iter()
+        .map(|s| s.to_string())
+        .chain(images)
+        .map(|name| dir.join(name))
+        .collect()
+}
+
+/// The files a comparison left in `dir`; the folder holds a study when one
+/// of them is a study file.
+pub fn existing_study(dir: &Path) -> Vec<PathBuf> {
+    let existing: Vec<PathBuf> = comparison_files(dir)
+        .into_iter()
+        // A directory under one of the names is no file of a study: the
+        // writability check refuses it by what it is.
+        .filter(|p| p.symlink_metadata().is_ok_and(|m| !m.is_dir()))
+        .collect();
+    let holds_study = existing.iter().any(|p| {
+        p.file_name()
+            .is_some_and(|n| STUDY_FILES.iter().any(|s| n == *s))
+    });
+    if holds_study { existing } else { Vec::new() }
+}
+
+/// The refusal for a folder that already holds a study, naming its files.
+pub fn occupied_error(command: &str, dir: &Path, existing: &[PathBuf]) -> String {
+    let names: Vec<String> = existing
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    format!(
+        "'{}' already holds a comparison ({}): {command} would replace it or leave its files \
+         beside the new study's; give --overwrite to replace them, or another --out",
+        dir.display(),
+        names.join(", ")
+    )
+}
+
+/// Removes the files a comparison writes from `dir` (no other file), so
+/// that a study written over an earlier one leaves nothing of it behind.
+pub fn remove_comparison_files(dir: &Path) -> Result<(), String> {
+    for path in comparison_files(dir) {
+        match std::fs::remove_file(&path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(format!("cannot remove '{}': {e}", path.display())),
+        }
+    }
+    Ok(())
+}
+
+/// `path`'s parent canonicalized, with its own name: the same file however
+/// it was written, whether or not it exists yet.
+fn canonical_target(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?;
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(parent.canonicalize().ok()?.join(name))
+}
+
+/// Refuses a comparison that would write over or remove its own reference.
+/// Checked before the folder exists, so the outputs are compared by the
+/// nearest existing ancestor: a folder still to be made holds no reference.
+pub fn check_reference_not_output(reference: &Path, dir: &Path) -> Result<(), String> {
+    let Ok(reference_c) = reference.canonicalize() else {
+        return Ok(());
+    };
+    if !dir.exists() {
+        return Ok(());
+    }
+    for out in comparison_files(dir) {
+        if canonical_target(&out).is_some_and(|o| o == reference_c) {
+            return Err(format!(
+                "the reference '{}' is '{}', a file compare writes or replaces: the study \
+                 would overwrite the image it measures against (copy the reference elsewhere or \
+                 choose another --out)",
+                reference.display(),
+                out.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Makes `dir` and checks every file the comparison will write there is
+/// writable, before hours of rendering could end on one that is not.
+pub fn check_writable(dir: &Path, methods: &[Method]) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create '{}': {e}", dir.display()))?;
+    let images = methods.iter().flat_map(|&m| image_files(m));
+    for name in STUDY_FILES.iter().map(|s| s.to_string()).chain(images) {
+        ensure_writable(&dir.join(name))?;
+    }
+    Ok(())
+}
