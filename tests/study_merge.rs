@@ -324,6 +324,20 @@ fn merge_pools_only_runs_at_the_same_bsdf_fraction_l2() {
     }
 }
 
+/// The summary without its machine line: a folder made before summaries
+/// recorded the exact budget and the reference.
+fn without_record(dir: &Path) {
+    let path = dir.join("summary.md");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let kept: String = text
+        .lines()
+        .filter(|l| !l.starts_with("<!-- ltcguide study:"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(kept, text, "no machine line in {}", path.display());
+    std::fs::write(&path, kept).unwrap();
+}
+
 fn file_names(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
@@ -414,6 +428,56 @@ fn compare_writes_its_files_after_every_run() {
 
 fn run_numbers_in(dir: &Path) -> Vec<u32> {
     ltcguide::experiment::curves::run_numbers(&rows_in(dir))
+}
+
+/// The summary says the budget to 0.1 s; `merge` compares the exact one
+/// each summary records, and folders made before the record under the old
+/// rule.
+#[test]
+fn merge_compares_the_exact_budget_where_recorded() {
+    let (a, b, out) = (temp("xa"), temp("xb"), temp("xout"));
+    study(&a, 0, 1, 0.2);
+    study(&b, 1, 1, 0.249);
+    let err = merge(&out, &[a.clone(), b.clone()]).unwrap_err();
+    assert!(
+        err.contains("differ in budget") && err.contains("0.249"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    without_record(&b);
+    merge(&out, &[a.clone(), b.clone()]).unwrap();
+    for d in [a, b, out] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// Studies measured against different references are not pooled; one that
+/// never recorded its reference is, and the pooled summary says which
+/// sources could not be checked.
+#[test]
+fn merge_refuses_studies_against_different_references() {
+    let (a, b, out) = (temp("fa"), temp("fb"), temp("fout"));
+    study(&a, 0, 1, 0.2);
+    let other = ltcguide::film::image::Image {
+        pixels: vec![glam::Vec3::splat(0.6); 64 * 64],
+        ..flat_reference()
+    };
+    let opts = CompareOptions {
+        first_run: 1,
+        use_plan: false,
+        ..compare_options(vec![Method::Pt, Method::Radiance], &b)
+    };
+    run_compare(&tiny(), &other, &opts).unwrap();
+    let err = merge(&out, &[a.clone(), b.clone()]).unwrap_err();
+    assert!(err.contains("differ in reference"), "{err}");
+    assert!(!out.exists());
+    without_record(&b);
+    let merged = merge(&out, &[a.clone(), b.clone()]).unwrap();
+    let note = format!("The reference could not be checked for `{}`", b.display());
+    assert!(merged.summary.contains(&note), "{}", merged.summary);
+    for d in [a, b, out] {
+        std::fs::remove_dir_all(d).ok();
+    }
 }
 
 /// A library caller naming a method twice is refused before the folder is

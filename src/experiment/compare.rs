@@ -8,8 +8,8 @@ use super::cost::{COST_CSV, CostRow, cost_section, parse_cost_csv, to_cost_csv};
 use super::curves::{CurveRow, MeanCurve, mean_curve, parse_csv, run_numbers, to_csv};
 use super::plot::curves_svg;
 use super::study_folder::{
-    check_reference_not_output, check_writable, existing_study, occupied_error,
-    remove_comparison_files,
+    StudyRecord, check_reference_not_output, check_writable, existing_study, occupied_error,
+    reference_fingerprint, remove_comparison_files,
 };
 use super::summary_text::{
     PLAN_HEADING, SUMMARY_TITLE_SUFFIX, budget_phrase, curves_title, final_errors_table,
@@ -195,6 +195,10 @@ pub fn run_compare(
     if opts.overwrite {
         remove_comparison_files(&opts.out_dir)?;
     }
+    let record = StudyRecord {
+        budget: Some(opts.seconds),
+        reference: Some(reference_fingerprint(reference)),
+    };
     let mut rows = Vec::new();
     let mut cost_rows = Vec::new();
     // One list per method, so that a method's runs stand together in the summary.
@@ -303,6 +307,7 @@ pub fn run_compare(
             &cost_rows,
             &plan_notes.concat(),
             &guard_notes,
+            &record,
         )?);
     }
     outcome.ok_or_else(|| "compare ran no run".into())
@@ -316,6 +321,7 @@ fn write_study(
     cost_rows: &[CostRow],
     notes: &[String],
     guard_notes: &[String],
+    record: &StudyRecord,
 ) -> Result<CompareOutcome, String> {
     let csv = to_csv(rows);
     write_atomic(&opts.out_dir.join("curves.csv"), csv.as_bytes())?;
@@ -336,7 +342,8 @@ fn write_study(
         &curves,
     )?;
     write_atomic(&opts.out_dir.join("curves.svg"), svg.as_bytes())?;
-    let summary = summary_markdown(scene, opts, &rows, &cost_rows, &curves, notes, guard_notes);
+    let mut summary = summary_markdown(scene, opts, &rows, &cost_rows, &curves, notes, guard_notes);
+    summary.push_str(&record.line());
     write_atomic(&opts.out_dir.join("summary.md"), summary.as_bytes())?;
     Ok(CompareOutcome {
         rows,

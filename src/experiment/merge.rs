@@ -17,6 +17,7 @@ use super::curves::{
     CurveRow, MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers, to_csv,
 };
 use super::plot::curves_svg;
+use super::study_folder::StudyRecord;
 use super::summary_text::{
     PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, runs_phrase,
     seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
@@ -47,6 +48,8 @@ struct SourceSummary {
     /// The items of the "Per-scene plan" and "Guards" sections.
     plan: Vec<String>,
     guards: Vec<String>,
+    /// What its machine line records (nothing, in summaries before it).
+    record: StudyRecord,
 }
 
 const BUDGET_PREFIX: &str = "Budget ";
@@ -96,6 +99,7 @@ fn parse_summary(text: &str) -> Result<SourceSummary, String> {
         settings: settings.to_string(),
         plan: items(PLAN_HEADING),
         guards: items("## Guards"),
+        record: StudyRecord::parse(text)?,
     })
 }
 
@@ -133,6 +137,14 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     let (first_dir, first) = (parsed[0].dir, &parsed[0].summary);
     let methods = methods_in_order(&parsed[0].rows);
     let mut seen: Vec<(u32, &PathBuf)> = Vec::new();
+    // What the first source to record each field recorded: every other
+    // recorded value is checked against it.
+    let recorded = StudyRecord {
+        budget: parsed.iter().find_map(|p| p.summary.record.budget),
+        reference: parsed
+            .iter()
+            .find_map(|p| p.summary.record.reference.clone()),
+    };
     for Source {
         dir,
         rows,
@@ -153,6 +165,18 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
         }
         if s.budget != first.budget {
             return Err(differs("budget", &first.budget, &s.budget));
+        }
+        // The text rounds the budget to 0.1 s: where both recorded it, the
+        // exact budgets must agree too.
+        if let (Some(a), Some(b)) = (recorded.budget, s.record.budget)
+            && a != b
+        {
+            return Err(differs("budget", &format!("{a} s"), &format!("{b} s")));
+        }
+        if let (Some(a), Some(b)) = (&recorded.reference, &s.record.reference)
+            && a != b
+        {
+            return Err(differs("reference", a, b));
         }
         if s.settings != first.settings {
             return Err(differs("path settings", &first.settings, &s.settings));
@@ -261,6 +285,10 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     })
 }
 
+/// The opening of a pooled summary's line naming its sources: what marks a
+/// folder as a merge's output.
+const POOLED_PREFIX: &str = "Pooled by `ltcguide merge` from ";
+
 /// A source's `runs.csv`, if it has one (comparisons before it have none).
 /// It must hold exactly the runs of each method that `curves.csv` holds.
 fn read_costs(dir: &Path, rows: &[CurveRow]) -> Result<Option<Vec<CostRow>>, String> {
@@ -328,10 +356,29 @@ fn pooled_summary(
         .collect();
     let _ = writeln!(
         s,
-        "Pooled by `ltcguide merge` from {} comparisons: {}.\n",
+        "{POOLED_PREFIX}{} comparisons: {}.\n",
         parsed.len(),
         sources.join(", ")
     );
+    let unchecked: Vec<String> = parsed
+        .iter()
+        .filter(|p| p.summary.record.reference.is_none())
+        .map(|p| format!("`{}`", p.dir.display()))
+        .collect();
+    if !unchecked.is_empty() {
+        let _ = writeln!(
+            s,
+            "The reference could not be checked for {}: {} no record of the reference its errors \
+             were measured against (made before summaries recorded it), so these runs are pooled \
+             on trust that it is the same.\n",
+            unchecked.join(", "),
+            if unchecked.len() == 1 {
+                "its summary holds"
+            } else {
+                "their summaries hold"
+            }
+        );
+    }
     let _ = writeln!(s, "{}\n", first.settings);
     s.push_str(&final_errors_table(rows, curves));
     s.push_str(&speedup_section(curves));
@@ -383,6 +430,19 @@ fn pooled_summary(
             )
         }
     );
+    // A field is recorded for the pool only where every source recorded it
+    // (and the checks made them agree): a later merge must not take runs
+    // that were never checked for checked ones.
+    let all = |pick: fn(&StudyRecord) -> bool| parsed.iter().all(|p| pick(&p.summary.record));
+    let record = StudyRecord {
+        budget: first.record.budget.filter(|_| all(|r| r.budget.is_some())),
+        reference: first
+            .record
+            .reference
+            .clone()
+            .filter(|_| all(|r| r.reference.is_some())),
+    };
+    s.push_str(&record.line());
     s
 }
 

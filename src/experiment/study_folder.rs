@@ -1,9 +1,12 @@
 //! A comparison folder's files as `compare` and `merge` own them: which
-//! names they write, and when a folder may be written into.
+//! names they write, when a folder may be written into, and the machine
+//! line of `summary.md` that records what its text rounds (the exact budget)
+//! or never says (which reference the errors were measured against).
 
 use super::compare::method_name;
 use super::cost::COST_CSV;
 use crate::film::ensure_writable;
+use crate::film::image::Image;
 use crate::render::Method;
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};
@@ -124,4 +127,111 @@ pub fn check_writable(dir: &Path, methods: &[Method]) -> Result<(), String> {
         ensure_writable(&dir.join(name))?;
     }
     Ok(())
+}
+
+/// A path-independent fingerprint of a reference: its size and the 64-bit
+/// FNV-1a hash of its pixels' f32 bits, so that the same pack checked out
+/// elsewhere gives the same fingerprint and a re-rendered one does not.
+pub fn reference_fingerprint(image: &Image) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for p in &image.pixels {
+        for c in [p.x, p.y, p.z] {
+            for b in c.to_bits().to_le_bytes() {
+                h ^= b as u64;
+                h = h.wrapping_mul(0x0100_0000_01b3);
+            }
+        }
+    }
+    format!("{}x{} fnv1a64 {h:016x}", image.width, image.height)
+}
+
+/// The opening of the summary's machine line, an HTML comment (hidden where
+/// the page is rendered) after its closing "Files:" line.
+const RECORD_PREFIX: &str = "<!-- ltcguide study: ";
+const RECORD_SUFFIX: &str = " -->";
+
+/// What a summary's machine line records; `None` where it was not recorded
+/// (summaries written before the line existed, or pooled from such).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StudyRecord {
+    /// The budget per run in seconds, exactly (the text says it to 0.1 s).
+    pub budget: Option<f64>,
+    pub reference: Option<String>,
+}
+
+impl StudyRecord {
+    /// The machine line, with a newline; empty when nothing is recorded.
+    pub fn line(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(b) = self.budget {
+            // `{}` prints the shortest text that parses back to the same f64.
+            parts.push(format!("budget_seconds={b}"));
+        }
+        if let Some(r) = &self.reference {
+            parts.push(format!("reference={r}"));
+        }
+        if parts.is_empty() {
+            return String::new();
+        }
+        format!("{RECORD_PREFIX}{}{RECORD_SUFFIX}\n", parts.join("; "))
+    }
+
+    /// The record of a summary (empty when it has no machine line).
+    pub fn parse(summary: &str) -> Result<StudyRecord, String> {
+        let mut record = StudyRecord::default();
+        let Some(line) = summary.lines().find(|l| l.starts_with(RECORD_PREFIX)) else {
+            return Ok(record);
+        };
+        let inner = line[RECORD_PREFIX.len()..]
+            .strip_suffix(RECORD_SUFFIX)
+            .ok_or_else(|| format!("its machine line is not closed: '{line}'"))?;
+        for part in inner.split("; ") {
+            match part.split_once('=') {
+                Some(("budget_seconds", v)) => {
+                    let b: f64 = v
+                        .parse()
+                        .map_err(|_| format!("its machine line's budget '{v}' is not a number"))?;
+                    record.budget = Some(b);
+                }
+                Some(("reference", v)) => record.reference = Some(v.to_string()),
+                _ => return Err(format!("its machine line has an unknown part '{part}'")),
+            }
+        }
+        Ok(record)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_record_reads_back_exactly() {
+        let r = StudyRecord {
+            budget: Some(0.249),
+            reference: Some("64x64 fnv1a64 00000000deadbeef".into()),
+        };
+        let text = format!("# s\n\nFiles: x\n{}", r.line());
+        assert_eq!(StudyRecord::parse(&text).unwrap(), r);
+        assert_eq!(StudyRecord::parse("# s\n").unwrap(), StudyRecord::default());
+        assert_eq!(StudyRecord::default().line(), "");
+    }
+
+    #[test]
+    fn the_fingerprint_follows_the_pixels() {
+        let image = |v: f32| Image {
+            width: 2,
+            height: 1,
+            pixels: vec![glam::Vec3::splat(v); 2],
+        };
+        assert_eq!(
+            reference_fingerprint(&image(0.5)),
+            reference_fingerprint(&image(0.5))
+        );
+        assert_ne!(
+            reference_fingerprint(&image(0.5)),
+            reference_fingerprint(&image(0.5000001))
+        );
+        assert!(reference_fingerprint(&image(0.5)).starts_with("2x1 fnv1a64 "));
+    }
 }
