@@ -503,8 +503,9 @@ fn compare_on_the_cpu_clock_gives_each_run_its_cpu_budget() {
         ..opts.clone()
     };
     run_compare(&scene, &reference, &wall).unwrap();
-    let err = ltcguide::experiment::merge::merge(&dir.join("pooled"), &[dir.clone(), wall_dir])
-        .unwrap_err();
+    let err =
+        ltcguide::experiment::merge::merge(&dir.join("pooled"), &[dir.clone(), wall_dir], false)
+            .unwrap_err();
     assert!(err.contains("budget"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }

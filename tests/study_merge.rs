@@ -57,7 +57,7 @@ fn merged_comparisons_pool_every_run_and_recompute_the_tables() {
         summary_b.contains("2 runs per method (seeds 1001–1002)"),
         "{summary_b}"
     );
-    let merged = merge(&out, &[a.clone(), b.clone()]).unwrap();
+    let merged = merge(&out, &[a.clone(), b.clone()], false).unwrap();
     assert_eq!(merged.runs, [0, 1, 2]);
     // Every row of both, grouped by method then run, none changed.
     let pooled = rows_in(&out);
@@ -147,7 +147,7 @@ fn merged_comparisons_pool_every_run_and_recompute_the_tables() {
     // without naming the pooled folder in front of it a second time.
     let (d, again) = (temp("d"), temp("again"));
     study(&d, 3, 1, 0.2);
-    let twice = merge(&again, &[out.clone(), d.clone()]).unwrap();
+    let twice = merge(&again, &[out.clone(), d.clone()], false).unwrap();
     let plans: Vec<&str> = twice
         .summary
         .lines()
@@ -172,11 +172,11 @@ fn merge_refuses_a_seed_twice_and_different_studies() {
     study(&a, 0, 1, 0.2);
     study(&b, 0, 1, 0.2);
     study(&c, 1, 1, 0.3);
-    let err = merge(&out, &[a.clone(), b.clone()]).unwrap_err();
+    let err = merge(&out, &[a.clone(), b.clone()], false).unwrap_err();
     assert!(err.contains("run 0 (seed 1000) is in both"), "{err}");
-    let err = merge(&out, &[a.clone(), c.clone()]).unwrap_err();
+    let err = merge(&out, &[a.clone(), c.clone()], false).unwrap_err();
     assert!(err.contains("differ in budget"), "{err}");
-    assert!(merge(&out, std::slice::from_ref(&a)).is_err());
+    assert!(merge(&out, std::slice::from_ref(&a), false).is_err());
     // Run numbers past u32::MAX are refused before anything renders.
     let past = CompareOptions {
         first_run: u32::MAX,
@@ -211,7 +211,7 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
     // A comparison made before runs.csv existed: the pooled table covers the
     // other's runs and names the one left out.
     std::fs::remove_file(a.join(COST_CSV)).unwrap();
-    let merged = merge(&out, &[a.clone(), b.clone()]).unwrap();
+    let merged = merge(&out, &[a.clone(), b.clone()], false).unwrap();
     let runs: Vec<u32> = costs_in(&out).iter().map(|c| c.run).collect();
     assert_eq!(runs, [1, 1]);
     assert!(
@@ -236,7 +236,7 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
     study(&c, 2, 1, 0.2);
     std::fs::remove_file(b.join(COST_CSV)).unwrap();
     std::fs::remove_file(c.join(COST_CSV)).unwrap();
-    let merged = merge(&out, &[a.clone(), b.clone(), c.clone()]).unwrap();
+    let merged = merge(&out, &[a.clone(), b.clone(), c.clone()], false).unwrap();
     assert!(!merged.summary.contains(COST_HEADING));
     assert!(!out.join(COST_CSV).exists());
     // A runs.csv that lacks a run of curves.csv is refused, nothing written.
@@ -249,7 +249,7 @@ fn merge_pools_the_costs_it_has_and_refuses_a_broken_runs_csv() {
         .collect();
     std::fs::write(b.join(COST_CSV), cut.join("\n")).unwrap();
     let fresh = temp("cfresh");
-    let err = merge(&fresh, &[a.clone(), b.clone()]).unwrap_err();
+    let err = merge(&fresh, &[a.clone(), b.clone()], false).unwrap_err();
     assert!(err.contains("one row for each run"), "{err}");
     assert!(!fresh.exists());
     for d in [a, b, c, out] {
@@ -302,8 +302,8 @@ fn merge_pools_only_runs_at_the_same_bsdf_fraction_l2() {
         "{pt}"
     );
     let (pooled, refused) = (temp("lpool"), temp("lrefused"));
-    merge(&pooled, &[a.clone(), b.clone()]).unwrap();
-    let err = merge(&refused, &[a.clone(), c.clone()]).unwrap_err();
+    merge(&pooled, &[a.clone(), b.clone()], false).unwrap();
+    let err = merge(&refused, &[a.clone(), c.clone()], false).unwrap_err();
     assert!(err.contains("differ in"), "{err}");
     assert!(!refused.exists());
     // A bad λ fails before the output folder is made.
@@ -438,14 +438,14 @@ fn merge_compares_the_exact_budget_where_recorded() {
     let (a, b, out) = (temp("xa"), temp("xb"), temp("xout"));
     study(&a, 0, 1, 0.2);
     study(&b, 1, 1, 0.249);
-    let err = merge(&out, &[a.clone(), b.clone()]).unwrap_err();
+    let err = merge(&out, &[a.clone(), b.clone()], false).unwrap_err();
     assert!(
         err.contains("differ in budget") && err.contains("0.249"),
         "{err}"
     );
     assert!(!out.exists());
     without_record(&b);
-    merge(&out, &[a.clone(), b.clone()]).unwrap();
+    merge(&out, &[a.clone(), b.clone()], false).unwrap();
     for d in [a, b, out] {
         std::fs::remove_dir_all(d).ok();
     }
@@ -468,14 +468,40 @@ fn merge_refuses_studies_against_different_references() {
         ..compare_options(vec![Method::Pt, Method::Radiance], &b)
     };
     run_compare(&tiny(), &other, &opts).unwrap();
-    let err = merge(&out, &[a.clone(), b.clone()]).unwrap_err();
+    let err = merge(&out, &[a.clone(), b.clone()], false).unwrap_err();
     assert!(err.contains("differ in reference"), "{err}");
     assert!(!out.exists());
     without_record(&b);
-    let merged = merge(&out, &[a.clone(), b.clone()]).unwrap();
+    let merged = merge(&out, &[a.clone(), b.clone()], false).unwrap();
     let note = format!("The reference could not be checked for `{}`", b.display());
     assert!(merged.summary.contains(&note), "{}", merged.summary);
     for d in [a, b, out] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// `merge --out` into a folder holding another comparison (not a source,
+/// not an earlier merge's output) is refused, that comparison untouched;
+/// with `overwrite` its files give way to the pooled ones.
+#[test]
+fn merge_refuses_to_write_over_another_comparison() {
+    let (a, b, other) = (temp("oa"), temp("ob"), temp("oother"));
+    study(&a, 0, 1, 0.2);
+    study(&b, 1, 1, 0.2);
+    study(&other, 5, 1, 0.2);
+    let names = file_names(&other);
+    let before = std::fs::read_to_string(other.join("curves.csv")).unwrap();
+    let err = merge(&other, &[a.clone(), b.clone()], false).unwrap_err();
+    assert!(err.contains("already holds a comparison"), "{err}");
+    assert_eq!(file_names(&other), names);
+    assert_eq!(
+        std::fs::read_to_string(other.join("curves.csv")).unwrap(),
+        before
+    );
+    merge(&other, &[a.clone(), b.clone()], true).unwrap();
+    assert_eq!(run_numbers_in(&other), [0, 1]);
+    assert!(!other.join("pt.exr").exists());
+    for d in [a, b, other] {
         std::fs::remove_dir_all(d).ok();
     }
 }

@@ -53,9 +53,14 @@ enum Command {
     /// different seeds: `compare --first-run`) into one folder: curves, summary and
     /// time-to-error table recomputed from the pooled curves.csv.
     Merge {
-        /// Output folder (may be one of the sources; their images stay where they are).
+        /// Output folder (may be one of the sources, their images staying where they are, or an
+        /// earlier merge's output; another comparison there is refused without --overwrite).
         #[arg(long)]
         out: PathBuf,
+        /// Replace a comparison in --out that is neither a source nor an earlier merge's output:
+        /// its files (curves, runs, summary, images; no other file) are removed first.
+        #[arg(long)]
+        overwrite: bool,
         /// Folders written by `compare --out`.
         #[arg(required = true, num_args = 2..)]
         sources: Vec<PathBuf>,
@@ -275,7 +280,11 @@ fn main() -> ExitCode {
         Command::Info { scene } => cmd_info(&scene),
         Command::Compare(args) => study_commands::cmd_compare(&args),
         Command::Replot { dirs } => study_commands::cmd_replot(&dirs),
-        Command::Merge { out, sources } => study_commands::cmd_merge(&out, &sources),
+        Command::Merge {
+            out,
+            sources,
+            overwrite,
+        } => study_commands::cmd_merge(&out, &sources, overwrite),
         Command::Ablation {
             scene,
             spp,

@@ -174,8 +174,8 @@ pub fn cmd_replot(dirs: &[PathBuf]) -> Result<(), String> {
     })
 }
 
-pub fn cmd_merge(out: &Path, sources: &[PathBuf]) -> Result<(), String> {
-    let merged = ltcguide::experiment::merge::merge(out, sources)?;
+pub fn cmd_merge(out: &Path, sources: &[PathBuf], overwrite: bool) -> Result<(), String> {
+    let merged = ltcguide::experiment::merge::merge(out, sources, overwrite)?;
     eprintln!(
         "{}: {} runs per method pooled from {} comparisons, {} rows ({})",
         out.display(),

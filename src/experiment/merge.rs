@@ -17,7 +17,7 @@ use super::curves::{
     CurveRow, MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers, to_csv,
 };
 use super::plot::curves_svg;
-use super::study_folder::StudyRecord;
+use super::study_folder::{StudyRecord, existing_study, occupied_error, remove_comparison_files};
 use super::summary_text::{
     PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, runs_phrase,
     seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
@@ -106,11 +106,17 @@ fn parse_summary(text: &str) -> Result<SourceSummary, String> {
 /// Pools the comparisons in `sources` (folders written by `compare --out`)
 /// into `out`: `curves.csv` with every source's rows, `curves.svg`, and
 /// `summary.md` with the pooled tables, each source's runs and plan lines.
-/// `out` may be one of the sources (its images stay). Nothing is written
+/// `out` may be one of the sources (its images stay) or an earlier merge's
+/// output; a folder holding another comparison is refused unless
+/// `overwrite`, which removes that comparison's files. Nothing is written
 /// unless every source reads, parses and matches the others.
-pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
+pub fn merge(out: &Path, sources: &[PathBuf], overwrite: bool) -> Result<Merged, String> {
     if sources.len() < 2 {
         return Err("merge needs at least two comparison folders".into());
+    }
+    let replaces = replaced_study(out, sources)?;
+    if !replaces.is_empty() && !overwrite {
+        return Err(occupied_error("merge", out, &replaces));
     }
     let mut parsed = Vec::new();
     for dir in sources {
@@ -262,6 +268,9 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
     let pooled_costs = parse_cost_csv(&cost_csv)?;
     let summary = pooled_summary(&parsed, &rows, &curves, &pooled_costs);
     std::fs::create_dir_all(out).map_err(|e| format!("cannot create '{}': {e}", out.display()))?;
+    if !replaces.is_empty() {
+        remove_comparison_files(out)?;
+    }
     write_atomic(&out.join("curves.csv"), csv.as_bytes())?;
     let cost_path = out.join(COST_CSV);
     if pooled_costs.is_empty() {
@@ -283,6 +292,32 @@ pub fn merge(out: &Path, sources: &[PathBuf]) -> Result<Merged, String> {
         methods,
         summary,
     })
+}
+
+/// The files of a comparison in `out` that pooling would replace: none when
+/// `out` holds no study, is one of the sources, or holds an earlier merge's
+/// output (which a new merge rewrites whole, as pooling into a page's folder
+/// again relies on).
+fn replaced_study(out: &Path, sources: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let existing = existing_study(out);
+    if existing.is_empty() {
+        return Ok(existing);
+    }
+    let canonical = |p: &Path| {
+        p.canonicalize()
+            .map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let out_c = canonical(out)?;
+    for source in sources {
+        if canonical(source)? == out_c {
+            return Ok(Vec::new());
+        }
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap_or_default();
+    if summary.lines().any(|l| l.starts_with(POOLED_PREFIX)) {
+        return Ok(Vec::new());
+    }
+    Ok(existing)
 }
 
 /// The opening of a pooled summary's line naming its sources: what marks a
