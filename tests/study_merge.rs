@@ -506,6 +506,42 @@ fn merge_refuses_to_write_over_another_comparison() {
     }
 }
 
+/// With a run's rows taken out of its CSVs by hand, `replot` leaves no line
+/// still counting it: the budget line and the final-errors table follow
+/// the CSV as the curves and the cost section do.
+#[test]
+fn replot_counts_the_runs_the_csv_holds() {
+    let dir = temp("cut");
+    study(&dir, 0, 2, 0.2);
+    for name in ["curves.csv", COST_CSV] {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        let kept: String = text
+            .lines()
+            .filter(|l| l.split(',').nth(1) != Some("1"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(dir.join(name), kept).unwrap();
+    }
+    ltcguide::experiment::replot::replot(&dir).unwrap();
+    let s = std::fs::read_to_string(dir.join("summary.md")).unwrap();
+    assert!(s.contains("1 runs per method (seeds 1000)"), "{s}");
+    assert!(!s.contains("2 runs"), "{s}");
+    let rows = rows_in(&dir);
+    for method in ["pt", "radiance"] {
+        let last = rows.iter().rfind(|r| r.method == method).unwrap();
+        let line = s
+            .lines()
+            .find(|l| l.starts_with(&format!("| {method} | ")))
+            .unwrap();
+        assert!(
+            line.contains(&format!("| {:.4e} ± 0.0e0 |", last.relmse)),
+            "{line}: one run's relMSE {}",
+            last.relmse
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A library caller naming a method twice is refused before the folder is
 /// made, as the command refuses it.
 #[test]

@@ -42,8 +42,8 @@ enum Command {
     },
     /// Equal-time comparison of methods: error-versus-time curves, summary and images.
     Compare(study_commands::CompareArgs),
-    /// Redraw a compare folder's curves.svg and time-to-error table from its curves.csv, without
-    /// rendering (for pages made before the curves' aggregation changed).
+    /// Redraw a compare folder's curves.svg, run count, final-errors and time-to-error tables from
+    /// its curves.csv, without rendering (for pages made before the curves' aggregation changed).
     Replot {
         /// Folders written by `compare --out`.
         #[arg(required = true)]

@@ -8,8 +8,8 @@ use super::cost::{COST_CSV, COST_HEADING, cost_coverage_note, cost_section, pars
 use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
 use super::plot::curves_svg;
 use super::summary_text::{
-    PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, speedup_section,
-    summary_items, summary_time_base, time_axis_label,
+    PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table,
+    runs_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
 };
 use crate::film::write_atomic;
 use std::path::Path;
@@ -28,8 +28,9 @@ pub struct Replotted {
     pub cost_rewritten: bool,
 }
 
-/// Rewrites `dir/curves.svg` and the time-to-error section of
-/// `dir/summary.md` from `dir/curves.csv`, and the cost section from
+/// Rewrites `dir/curves.svg`, and the budget line's run count, the
+/// final-errors table and the time-to-error section of `dir/summary.md`
+/// from `dir/curves.csv`, and the cost section from
 /// `dir/runs.csv` and the summary's plan lines where the folder has one. Both files must exist (a
 /// `compare` output folder); nothing is written when either cannot be read
 /// or parsed.
@@ -66,6 +67,11 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
     let in_summary = |e: String| format!("{}: {e}", dir.join("summary.md").display());
     let (old_section, mut new_summary) =
         replace_section(&summary, SPEEDUP_HEADING, &new_section).map_err(in_summary)?;
+    // The run count and final errors come from the CSV too, so that a run
+    // taken out of it leaves no line still counting it.
+    new_summary = replace_runs_phrase(&new_summary, &runs_phrase(&rows)).map_err(in_summary)?;
+    new_summary =
+        replace_table(&new_summary, &final_errors_table(&rows, &curves)).map_err(in_summary)?;
     let cost_path = dir.join(COST_CSV);
     let cost_rewritten = match std::fs::read_to_string(&cost_path) {
         Ok(text) => {
@@ -91,6 +97,51 @@ pub fn replot(dir: &Path) -> Result<Replotted, String> {
         new_section,
         cost_rewritten,
     })
+}
+
+/// The summary with its budget line's "N runs per method (seeds …)" replaced
+/// by `phrase`.
+fn replace_runs_phrase(summary: &str, phrase: &str) -> Result<String, String> {
+    let start = summary.find("\nBudget ").ok_or("no 'Budget …' line")? + 1;
+    let line_end = summary[start..]
+        .find('\n')
+        .map_or(summary.len(), |i| start + i);
+    let line = &summary[start..line_end];
+    let runs_at = line
+        .find(" runs per method (")
+        .ok_or("the budget line names no runs")?;
+    let from = line[..runs_at]
+        .rfind(", ")
+        .ok_or("the budget line has no runs after its budget")?
+        + 2;
+    let to = line[runs_at..]
+        .find(')')
+        .ok_or("the budget line's seeds are not closed")?
+        + runs_at
+        + 1;
+    Ok(format!(
+        "{}{phrase}{}",
+        &summary[..start + from],
+        &summary[start + to..]
+    ))
+}
+
+/// The summary with its final-errors table (its header line and every
+/// table line after it) replaced by `table`.
+fn replace_table(summary: &str, table: &str) -> Result<String, String> {
+    let header = table.lines().next().unwrap_or_default();
+    let start = summary
+        .find(&format!("\n{header}\n"))
+        .ok_or("no final-errors table")?
+        + 1;
+    let mut end = start;
+    for line in summary[start..].split_inclusive('\n') {
+        if !line.starts_with('|') {
+            break;
+        }
+        end += line.len();
+    }
+    Ok(format!("{}{table}{}", &summary[..start], &summary[end..]))
 }
 
 /// The section it held, and the summary with its section under `heading`
