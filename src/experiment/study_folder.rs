@@ -5,8 +5,8 @@
 
 use super::compare::method_name;
 use super::cost::COST_CSV;
-use crate::film::ensure_writable;
 use crate::film::image::Image;
+use crate::film::{ensure_writable, resolved_path};
 use crate::render::Method;
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};
@@ -83,29 +83,11 @@ pub fn remove_comparison_files(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// `path`'s parent canonicalized, with its own name: the same file however
-/// it was written, whether or not it exists yet.
-fn canonical_target(path: &Path) -> Option<PathBuf> {
-    let name = path.file_name()?;
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    Some(parent.canonicalize().ok()?.join(name))
-}
-
 /// Refuses a comparison that would write over or remove its own reference.
-/// Checked before the folder exists, so the outputs are compared by the
-/// nearest existing ancestor: a folder still to be made holds no reference.
 pub fn check_reference_not_output(reference: &Path, dir: &Path) -> Result<(), String> {
-    let Ok(reference_c) = reference.canonicalize() else {
-        return Ok(());
-    };
-    if !dir.exists() {
-        return Ok(());
-    }
+    let reference_file = resolved_path(reference);
     for out in comparison_files(dir) {
-        if canonical_target(&out).is_some_and(|o| o == reference_c) {
+        if resolved_path(&out) == reference_file {
             return Err(format!(
                 "the reference '{}' is '{}', a file compare writes or replaces: the study \
                  would overwrite the image it measures against (copy the reference elsewhere or \
