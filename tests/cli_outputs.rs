@@ -514,6 +514,29 @@ fn compare_refuses_to_write_over_its_reference() {
         cmp.as_os_str(),
     ]);
     assert_eq!(code, Some(0), "{err}");
+    // The folder now holds a comparison: a second one is refused unless
+    // told to overwrite, which `scripts/results.sh` relies on.
+    let again = |extra: &[&str]| {
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "--reference".as_ref(),
+            reference.as_os_str(),
+            "--methods".as_ref(),
+            "pt".as_ref(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        args.extend([std::ffi::OsStr::new("--out"), cmp.as_os_str()]);
+        compare(&args)
+    };
+    let summary = std::fs::read(cmp.join("summary.md")).unwrap();
+    let (code, err) = again(&[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("already holds a comparison") && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(cmp.join("summary.md")).unwrap(), summary);
+    let (code, err) = again(&["--overwrite"]);
+    assert_eq!(code, Some(0), "{err}");
     std::fs::copy(&reference, cmp.join("radiance.exr")).unwrap();
     let respelt = dir.join("cmpR/../cmpR");
     for own in ["pt.exr", "radiance.exr"] {
