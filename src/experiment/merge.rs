@@ -22,7 +22,7 @@ use super::summary_text::{
     PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, runs_phrase,
     seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
 };
-use crate::film::write_atomic;
+use crate::film::{resolved_path, write_atomic};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -114,7 +114,7 @@ pub fn merge(out: &Path, sources: &[PathBuf], overwrite: bool) -> Result<Merged,
     if sources.len() < 2 {
         return Err("merge needs at least two comparison folders".into());
     }
-    let replaces = replaced_study(out, sources)?;
+    let replaces = replaced_study(out, sources);
     if !replaces.is_empty() && !overwrite {
         return Err(occupied_error("merge", out, &replaces));
     }
@@ -298,26 +298,23 @@ pub fn merge(out: &Path, sources: &[PathBuf], overwrite: bool) -> Result<Merged,
 /// `out` holds no study, is one of the sources, or holds an earlier merge's
 /// output (which a new merge rewrites whole, as pooling into a page's folder
 /// again relies on).
-fn replaced_study(out: &Path, sources: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+fn replaced_study(out: &Path, sources: &[PathBuf]) -> Vec<PathBuf> {
     let existing = existing_study(out);
     if existing.is_empty() {
-        return Ok(existing);
+        return existing;
     }
-    let canonical = |p: &Path| {
-        p.canonicalize()
-            .map_err(|e| format!("{}: {e}", p.display()))
-    };
-    let out_c = canonical(out)?;
-    for source in sources {
-        if canonical(source)? == out_c {
-            return Ok(Vec::new());
-        }
+    let out_dir = resolved_path(out);
+    if sources
+        .iter()
+        .any(|source| resolved_path(source) == out_dir)
+    {
+        return Vec::new();
     }
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap_or_default();
     if summary.lines().any(|l| l.starts_with(POOLED_PREFIX)) {
-        return Ok(Vec::new());
+        return Vec::new();
     }
-    Ok(existing)
+    existing
 }
 
 /// The opening of a pooled summary's line naming its sources: what marks a
