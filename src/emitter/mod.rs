@@ -320,7 +320,7 @@ impl Light {
             } => {
                 let to_center = *center - p;
                 let dist_c2 = to_center.length_squared();
-                if dist_c2 <= radius * radius {
+                if on_or_inside_sphere(*center, *radius, p) {
                     // Inside: uniform area sampling; emission faces inward only if flipped.
                     let n = square_to_uniform_sphere(u);
                     let q = *center + n * *radius;
@@ -423,12 +423,26 @@ fn aim_from_origin(s: LightSample, origin: &impl Fn(Vec3) -> Vec3) -> Option<Lig
     })
 }
 
-/// Solid-angle pdf of cone sampling a sphere from outside, `None` inside.
+/// Whether light sampling treats `p` as inside the sphere (area sampling)
+/// rather than outside (cone sampling). A point on the sphere itself, which
+/// rounding puts a few ulps to either side, counts as inside: from there
+/// every other point of the sphere lies on one side of its tangent plane,
+/// so area sampling sees what is visible, and the inward emission of a
+/// flipped sphere is sampled. Sampling and pdf must decide alike: where they
+/// did not (a flipped sphere's cone pdf for a point just outside, which
+/// sampling never served), MIS weights lost ~10 % of a closed room's light.
+fn on_or_inside_sphere(center: Vec3, radius: f32, p: Vec3) -> bool {
+    let rounding = 1e-6 * (center.abs().max_element() + p.abs().max_element());
+    (center - p).length() <= radius * (1.0 + 1e-4) + rounding
+}
+
+/// Solid-angle pdf of cone sampling a sphere from outside, `None` on or
+/// inside it.
 fn sphere_cone_pdf(center: Vec3, radius: f32, p: Vec3) -> Option<f32> {
-    let dist_c2 = (center - p).length_squared();
-    if dist_c2 <= radius * radius {
+    if on_or_inside_sphere(center, radius, p) {
         return None;
     }
+    let dist_c2 = (center - p).length_squared();
     let sin_max2 = radius * radius / dist_c2;
     let cos_max = (1.0 - sin_max2).max(0.0).sqrt();
     Some(1.0 / (2.0 * PI * (sin_max2 / (1.0 + cos_max))))
