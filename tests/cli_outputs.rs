@@ -607,3 +607,60 @@ fn compare_checks_its_outputs_before_the_first_run() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `max_depth` as the scene format defines it: `-1` and a scene without the
+/// element are unlimited, as in Mitsuba (both rendered at 10 segments), a
+/// value is taken as it is, and `--max-depth` overrides the scene.
+#[test]
+fn the_scenes_max_depth_is_mitsubas() {
+    let dir = work_dir("max-depth");
+    let scene = |integrator: &str| {
+        format!(
+            r#"<scene version="3.0.0">{integrator}
+	<sensor type="perspective">
+		<float name="fov" value="45"/>
+		<transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+		<film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="4"/></film>
+	</sensor>
+	<shape type="sphere"><bsdf type="diffuse"/></shape>
+	<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
+</scene>"#
+        )
+    };
+    let depth = |n: &str| {
+        format!(r#"<integrator type="path"><integer name="max_depth" value="{n}"/></integrator>"#)
+    };
+    for (name, integrator, args, expect) in [
+        ("minus-one", depth("-1"), &[][..], "null"),
+        ("missing", String::new(), &[], "null"),
+        ("three", depth("3"), &[], "3"),
+        ("override", depth("-1"), &["--max-depth", "5"], "5"),
+    ] {
+        let path = dir.join(format!("{name}.xml"));
+        std::fs::write(&path, scene(&integrator)).unwrap();
+        let (out, stats) = (
+            dir.join(format!("{name}.exr")),
+            dir.join(format!("{name}.json")),
+        );
+        let (code, err) = render(
+            &path,
+            &[
+                &[
+                    "--out",
+                    out.to_str().unwrap(),
+                    "--stats-json",
+                    stats.to_str().unwrap(),
+                ][..],
+                args,
+            ]
+            .concat(),
+        );
+        assert_eq!(code, Some(0), "{name}: {err}");
+        let json = std::fs::read_to_string(&stats).unwrap();
+        assert!(
+            json.contains(&format!("\"max_depth\": {expect}")),
+            "{name}: {json}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

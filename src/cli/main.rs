@@ -384,7 +384,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     }
     let scene = load(&args.scene)?;
     let max_depth = match args.max_depth {
-        None => scene.max_depth.or(Some(10)),
+        None => scene.max_depth,
         Some(-1) => None,
         Some(d) => Some(d as u32),
     };

@@ -88,7 +88,7 @@ pub fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
     let guided = method != Method::Pt;
     PathSettings {
         nee: !guided,
-        max_depth: scene.max_depth.or(Some(10)),
+        max_depth: scene.max_depth,
         roulette: if guided {
             RouletteMode::Adrrs
         } else {
@@ -151,7 +151,7 @@ pub fn cmd_attribute(
     // The arguments first: a bad one fails before a scene is loaded.
     check(&args.options(None))?;
     let scene = load(&args.scene)?;
-    let out = run_attribution(&scene, &args.options(scene.max_depth.or(Some(10))))?;
+    let out = run_attribution(&scene, &args.options(scene.max_depth))?;
     println!("{}", out.markdown);
     Ok(())
 }
