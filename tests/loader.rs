@@ -548,9 +548,9 @@ fn the_subset_forms_next_to_the_refused_ones_load() {
 }
 
 /// Forms Mitsuba's own scenes use beyond the pack, each with one meaning the
-/// loader implements exactly, still load: a shape's `rotate`, `scale` (z
-/// included) and `lookat`, and an OBJ's objects, groups, smoothing groups
-/// and material names, whose triangles are all read.
+/// loader implements exactly, still load: a shape's `id` (a name only),
+/// `rotate`, `scale` (z included) and `lookat`, and an OBJ's objects,
+/// groups, smoothing groups and material names, whose triangles are all read.
 #[test]
 fn forms_beyond_the_pack_with_one_meaning_load() {
     let dir = std::env::temp_dir().join(format!("ltcguide-loader-{}", std::process::id()));
@@ -561,7 +561,7 @@ fn forms_beyond_the_pack_with_one_meaning_load() {
     let xml = r#"<scene version="3.0.0">
 <sensor type="perspective"><float name="fov" value="40"/></sensor>
 <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
-<shape type="obj"><string name="filename" value="grouped.obj"/><boolean name="face_normals" value="true"/><bsdf type="diffuse"/></shape>
+<shape type="obj" id="mesh-grouped"><string name="filename" value="grouped.obj"/><boolean name="face_normals" value="true"/><bsdf type="diffuse"/></shape>
 <shape type="rectangle"><transform name="to_world"><scale x="2" y="3" z="4"/></transform><bsdf type="diffuse"/></shape>
 <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/></transform><bsdf type="diffuse"/></shape>
 <shape type="rectangle"><transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 6" up="0, 1, 0"/></transform><bsdf type="diffuse"/></shape>

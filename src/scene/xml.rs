@@ -397,9 +397,13 @@ pub fn parse_transform(
 fn allowed_attributes(tag: &str) -> Option<&'static [&'static str]> {
     Some(match tag {
         "scene" => &["version"],
-        "integrator" | "sensor" | "film" | "sampler" | "emitter" | "shape" | "rfilter" => &["type"],
+        // An `id` on these only names them (exporters write one on every
+        // shape); only a bsdf's is referred to.
+        "integrator" | "sensor" | "film" | "sampler" | "emitter" | "shape" | "rfilter" => {
+            &["type", "id"]
+        }
         "bsdf" => &["type", "id"],
-        "texture" => &["type", "name"],
+        "texture" => &["type", "name", "id"],
         "ref" => &["id"],
         "float" | "integer" | "boolean" | "string" | "rgb" => &["name", "value"],
         "point" => &["name", "x", "y", "z"],
