@@ -317,12 +317,6 @@ const BAD: &[(&str, &str, u32, &str)] = &[
         "inside a sampler",
     ),
     (
-        "sampler_type.xml",
-        "sampler_type.xml",
-        14,
-        "unsupported sampler type",
-    ),
-    (
         "obj_flattened.xml",
         "obj_flattened.xml",
         23,
@@ -474,6 +468,17 @@ fn an_ignorable_element_is_a_warning() {
     assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
     assert!(scene.warnings[0].contains("volpath"));
     assert!(scene.warnings[0].contains("ignored_integrator.xml:3:"));
+    // Another sampler changes the noise, not the image: a warning too.
+    let text = std::fs::read_to_string(data("ok/other_sampler.xml")).unwrap();
+    let scene = load_scene_from_str(&text, &data("ok/other_sampler.xml")).expect("loads");
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("sampler type 'stratified' ignored")),
+        "{:?}",
+        scene.warnings
+    );
 }
 
 #[test]

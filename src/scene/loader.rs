@@ -252,12 +252,15 @@ impl<'a> Builder<'a> {
                     }
                 }
                 "sampler" => {
+                    // Another sampler changes the noise, not the image.
                     let ty = ctx.required_attr(child, "type")?;
                     if ty != "independent" {
-                        return Err(ctx.error(
+                        ctx.warn(
                             child,
-                            format!("unsupported sampler type '{ty}' (only 'independent')"),
-                        ));
+                            format!(
+                                "sampler type '{ty}' ignored: ltcguide draws independent samples"
+                            ),
+                        );
                     }
                     // The sample count is informational: spp comes from the command line.
                     let sp = Properties::new(ctx, child);
