@@ -20,7 +20,8 @@ use super::plot::curves_svg;
 use super::study_folder::{StudyRecord, existing_study, occupied_error, remove_comparison_files};
 use super::summary_text::{
     PLAN_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table, runs_phrase,
-    seeds_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
+    runs_phrase_span, seeds_phrase, speedup_section, summary_items, summary_time_base,
+    time_axis_label,
 };
 use crate::film::{resolved_path, write_atomic};
 use std::fmt::Write;
@@ -53,7 +54,6 @@ struct SourceSummary {
 }
 
 const BUDGET_PREFIX: &str = "Budget ";
-const RUNS_MARK: &str = " runs per method (";
 const SETTINGS_PREFIX: &str = "Path settings: ";
 
 fn parse_summary(text: &str) -> Result<SourceSummary, String> {
@@ -72,21 +72,11 @@ fn parse_summary(text: &str) -> Result<SourceSummary, String> {
         .lines()
         .find(|l| l.starts_with(BUDGET_PREFIX))
         .ok_or("no 'Budget …' line")?;
-    // "Budget B s per run (training included), N runs per method (seeds …), MACHINE."
-    let runs_at = budget_line
-        .find(RUNS_MARK)
-        .ok_or("the budget line names no runs")?;
-    let budget_end = budget_line[..runs_at]
-        .rfind(", ")
-        .ok_or("the budget line has no runs after its budget")?
-        + 2;
-    let close = budget_line[runs_at..]
-        .find("), ")
-        .ok_or("the budget line's seeds are not closed")?
-        + runs_at;
-    let machine = budget_line[close + 3..]
-        .strip_suffix('.')
-        .unwrap_or(&budget_line[close + 3..]);
+    let (budget_end, runs_end) = runs_phrase_span(budget_line)?;
+    let after_runs = budget_line[runs_end..]
+        .strip_prefix(", ")
+        .ok_or("the budget line names no machine after its runs")?;
+    let machine = after_runs.strip_suffix('.').unwrap_or(after_runs);
     let settings = text
         .lines()
         .find(|l| l.starts_with(SETTINGS_PREFIX))

@@ -9,7 +9,8 @@ use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numb
 use super::plot::curves_svg;
 use super::summary_text::{
     PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table,
-    runs_phrase, speedup_section, summary_items, summary_time_base, time_axis_label,
+    runs_phrase, runs_phrase_span, speedup_section, summary_items, summary_time_base,
+    time_axis_label,
 };
 use crate::film::write_atomic;
 use std::path::Path;
@@ -106,19 +107,7 @@ fn replace_runs_phrase(summary: &str, phrase: &str) -> Result<String, String> {
     let line_end = summary[start..]
         .find('\n')
         .map_or(summary.len(), |i| start + i);
-    let line = &summary[start..line_end];
-    let runs_at = line
-        .find(" runs per method (")
-        .ok_or("the budget line names no runs")?;
-    let from = line[..runs_at]
-        .rfind(", ")
-        .ok_or("the budget line has no runs after its budget")?
-        + 2;
-    let to = line[runs_at..]
-        .find(')')
-        .ok_or("the budget line's seeds are not closed")?
-        + runs_at
-        + 1;
+    let (from, to) = runs_phrase_span(&summary[start..line_end])?;
     Ok(format!(
         "{}{phrase}{}",
         &summary[..start + from],

@@ -159,3 +159,22 @@ pub fn speedup_section(curves: &[MeanCurve]) -> String {
     }
     s
 }
+
+/// Where a summary's budget line ("Budget B s per run (training included),
+/// N runs per method (seeds …), MACHINE.") holds its runs phrase: the byte
+/// range of "N runs per method (seeds …)" within `line`.
+pub fn runs_phrase_span(line: &str) -> Result<(usize, usize), String> {
+    let runs_at = line
+        .find(" runs per method (")
+        .ok_or("the budget line names no runs")?;
+    let from = line[..runs_at]
+        .rfind(", ")
+        .ok_or("the budget line has no runs after its budget")?
+        + 2;
+    let to = line[runs_at..]
+        .find(')')
+        .ok_or("the budget line's seeds are not closed")?
+        + runs_at
+        + 1;
+    Ok((from, to))
+}
