@@ -491,6 +491,21 @@ fn compare(args: &[&std::ffi::OsStr]) -> (Option<i32>, String) {
     )
 }
 
+/// `compare` of path tracing alone against `reference` into `out`, with
+/// `extra` flags.
+fn compare_pt(reference: &Path, out: &Path, extra: &[&str]) -> (Option<i32>, String) {
+    use std::ffi::OsStr;
+    let mut args: Vec<&OsStr> = vec![
+        "--reference".as_ref(),
+        reference.as_os_str(),
+        "--methods".as_ref(),
+        "pt".as_ref(),
+    ];
+    args.extend(extra.iter().map(OsStr::new));
+    args.extend([OsStr::new("--out"), out.as_os_str()]);
+    compare(&args)
+}
+
 /// A uniform 64×64 reference (the tiny scene's size) at `path`.
 fn write_reference(path: &Path) {
     let pixels = vec![glam::Vec3::splat(0.5); 64 * 64];
@@ -505,28 +520,11 @@ fn compare_refuses_to_write_over_its_reference() {
     let dir = work_dir("own-reference");
     let (reference, cmp) = (dir.join("ref.exr"), dir.join("cmpR"));
     write_reference(&reference);
-    let (code, err) = compare(&[
-        "--reference".as_ref(),
-        reference.as_os_str(),
-        "--methods".as_ref(),
-        "pt".as_ref(),
-        "--out".as_ref(),
-        cmp.as_os_str(),
-    ]);
+    let (code, err) = compare_pt(&reference, &cmp, &[]);
     assert_eq!(code, Some(0), "{err}");
     // The folder now holds a comparison: a second one is refused unless
     // told to overwrite, which `scripts/results.sh` relies on.
-    let again = |extra: &[&str]| {
-        let mut args: Vec<&std::ffi::OsStr> = vec![
-            "--reference".as_ref(),
-            reference.as_os_str(),
-            "--methods".as_ref(),
-            "pt".as_ref(),
-        ];
-        args.extend(extra.iter().map(std::ffi::OsStr::new));
-        args.extend([std::ffi::OsStr::new("--out"), cmp.as_os_str()]);
-        compare(&args)
-    };
+    let again = |extra: &[&str]| compare_pt(&reference, &cmp, extra);
     let summary = std::fs::read(cmp.join("summary.md")).unwrap();
     let (code, err) = again(&[]);
     assert_eq!(code, Some(2), "{err}");
@@ -541,15 +539,7 @@ fn compare_refuses_to_write_over_its_reference() {
     let respelt = dir.join("cmpR/../cmpR");
     for own in ["pt.exr", "radiance.exr"] {
         let bytes = std::fs::read(cmp.join(own)).unwrap();
-        let (code, err) = compare(&[
-            "--reference".as_ref(),
-            cmp.join(own).as_os_str(),
-            "--methods".as_ref(),
-            "pt".as_ref(),
-            "--overwrite".as_ref(),
-            "--out".as_ref(),
-            respelt.as_os_str(),
-        ]);
+        let (code, err) = compare_pt(&cmp.join(own), &respelt, &["--overwrite"]);
         assert_eq!(code, Some(2), "{own}: {err}");
         assert!(err.contains("the reference") && err.contains(own), "{err}");
         assert!(!err.contains("compare: pt, run"), "rendered first: {err}");
@@ -588,14 +578,7 @@ fn compare_checks_its_outputs_before_the_first_run() {
     for blocked in ["summary.md", "curves.csv", "pt-error.png"] {
         let out = dir.join(format!("cmp-{blocked}"));
         std::fs::create_dir_all(out.join(blocked)).unwrap();
-        let (code, err) = compare(&[
-            "--reference".as_ref(),
-            reference.as_os_str(),
-            "--methods".as_ref(),
-            "pt".as_ref(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ]);
+        let (code, err) = compare_pt(&reference, &out, &[]);
         assert_eq!(code, Some(2), "{blocked}: {err}");
         assert!(
             err.contains("is a directory") && err.contains(blocked),
