@@ -11,10 +11,15 @@ firefly pixels and one unlucky run can move a mean by 2x:
 - "geo": ratio of geometric means (mean of log errors), robust to one outlier run;
   with its 1-sigma factor from the spread of the log errors of both methods,
   sqrt(var_p/n_p + var_r/n_r), shown as x/ f.
-Numbers come only from the CSV files (each run's final row). Prints markdown."""
+Numbers come only from the CSV files (each run's final row). What each run's image
+holds comes from the plan lines of the scene's summary.md: a guided run whose strategy
+trial handed its budget to path tracing images path-tracing passes alone, and a ratio
+between two such runs measures the trials' cost, not guiding. Every row says how many
+runs did so. Prints markdown."""
 import csv
 import math
 import os
+import re
 import sys
 
 scenes = ["cornell-box", "veach-mis", "veach-ajar", "staircase", "living-room"]
@@ -28,6 +33,43 @@ def finals(path):
     for (m, _), r in last.items():
         out.setdefault(m, []).append((float(r["relmse"]), float(r["mae"])))
     return out
+
+
+# The plan-line phrases of src/guiding/trial.rs (FALLBACK_IMAGE and the
+# product's switch to radiance weights).
+PT_IMAGE = "the image holds path tracing's passes alone"
+RADIANCE_WEIGHTS = "product weights do not pay here"
+
+
+def plan_outcomes(scene_dir):
+    """Per method: (runs, runs imaged by path tracing alone, product runs that
+    switched to radiance weights), from the plan lines of summary.md."""
+    out = {}
+    path = os.path.join(scene_dir, "summary.md")
+    if not os.path.exists(path):
+        return out
+    for line in open(path):
+        m = re.match(r"- (?:`[^`]*`: )?(\w+), seed \d+: plan: ", line)
+        if not m:
+            continue
+        runs, pt, radiance = out.get(m.group(1), (0, 0, 0))
+        out[m.group(1)] = (runs + 1, pt + (PT_IMAGE in line), radiance + (RADIANCE_WEIGHTS in line))
+    return out
+
+
+def imaged(outcomes, method):
+    """'k/n' runs of the method imaged by path tracing alone ('—' without plan lines)."""
+    runs, pt, _ = outcomes.get(method, (0, 0, 0))
+    return f"{pt}/{runs}" if runs else "—"
+
+
+FALLBACK_NOTE = (
+    "*pt-imaged*: runs whose strategy trial measured that guiding does not pay and handed the rest "
+    "of the budget to path tracing with NEE, so that their image holds path tracing's passes alone "
+    "(their plan lines say so). Where every run of both methods did, the ratio compares path "
+    "tracing with path tracing and measures what the trials cost, not guiding; `docs/results-240s.md` "
+    "runs every method as such throughout."
+)
 
 
 def mean(xs):
@@ -53,8 +95,9 @@ def cell(a, b):
 
 
 def product_vs_radiance(root):
-    print("| scene | runs | relMSE product/radiance: means | geo | MAE product/radiance: means | geo | relMSE product/pt: means | geo |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| scene | runs | pt-imaged: radiance; product | relMSE product/radiance: means | geo | MAE product/radiance: means | geo | relMSE product/pt: means | geo |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    any_fallback = False
     for s in scenes:
         p = os.path.join(root, s, "curves.csv")
         if not os.path.exists(p):
@@ -65,27 +108,47 @@ def product_vs_radiance(root):
         col = lambda m, i: [v[i] for v in f[m]]
         n = min(len(f["product"]), len(f["radiance"]))
         vs_pt = cell(col("product", 0), col("pt", 0)) if "pt" in f else "— | —"
+        plans = plan_outcomes(os.path.join(root, s))
+        any_fallback |= any(plans.get(m, (0, 0, 0))[1] for m in ("radiance", "product"))
         print(
-            f"| {s} | {n} | {cell(col('product', 0), col('radiance', 0))} | "
+            f"| {s} | {n} | {imaged(plans, 'radiance')}; {imaged(plans, 'product')} | "
+            f"{cell(col('product', 0), col('radiance', 0))} | "
             f"{cell(col('product', 1), col('radiance', 1))} | {vs_pt} |"
         )
+    if any_fallback:
+        print()
+        print(FALLBACK_NOTE)
 
 
 def roulette_vs_classic(classic_root, adrrs_root):
     """Per scene and guided method: ADRRS's final error over classic's."""
-    print("| scene | method | runs | relMSE adrrs/classic: means | geo | MAE adrrs/classic: means | geo |")
-    print("|---|---|---|---|---|---|---|")
+    print("| scene | method | runs | pt-imaged: classic; adrrs | relMSE adrrs/classic: means | geo | MAE adrrs/classic: means | geo |")
+    print("|---|---|---|---|---|---|---|---|")
+    any_fallback = False
     for s in scenes:
         a, c = (os.path.join(r, s, "curves.csv") for r in (adrrs_root, classic_root))
         if not (os.path.exists(a) and os.path.exists(c)):
             continue
         fa, fc = finals(a), finals(c)
+        pa, pc = (plan_outcomes(os.path.dirname(x)) for x in (a, c))
         # pt has Mitsuba's roulette in both parts: the control row.
         for m, label in (("pt", "pt (control)"), ("radiance", "radiance"), ("product", "product")):
             if m in fa and m in fc:
                 col = lambda f, i: [v[i] for v in f[m]]
                 n = min(len(fa[m]), len(fc[m]))
-                print(f"| {s} | {label} | {n} | {cell(col(fa, 0), col(fc, 0))} | {cell(col(fa, 1), col(fc, 1))} |")
+                fallbacks = f"{imaged(pc, m)}; {imaged(pa, m)}" if m != "pt" else "—"
+                any_fallback |= m != "pt" and (pa.get(m, (0, 0, 0))[1] + pc.get(m, (0, 0, 0))[1]) > 0
+                print(
+                    f"| {s} | {label} | {n} | {fallbacks} | {cell(col(fa, 0), col(fc, 0))} | "
+                    f"{cell(col(fa, 1), col(fc, 1))} |"
+                )
+    if any_fallback:
+        print()
+        print(
+            FALLBACK_NOTE
+            + " A pt-imaged run renders its path-tracing passes with classic roulette in both parts, "
+            "so its row says what the trial cost under each roulette, not what ADRRS does."
+        )
 
 
 if len(sys.argv) == 4 and sys.argv[1] == "--roulette":
