@@ -585,7 +585,7 @@ fn bsdf_fraction_l2_out_of_range_is_refused_by_the_study_commands() {
 
 /// The ablation times the paper's three kernels with the paper's product
 /// (every vertex, cosine lobes included, so that a diffuse scene exercises
-/// them), then the plan rows: with the plan, without it, and without it at
+/// them) and no plan, then the plan rows: with the plan, without it, and without it at
 /// the paper's setting, against which the savings are stated.
 #[test]
 fn ablation_reports_every_kernel_and_plan_row() {
@@ -611,6 +611,35 @@ fn ablation_reports_every_kernel_and_plan_row() {
         out.markdown
     );
     assert!(out.markdown.contains("| naive |") && out.markdown.contains("| 100 % |"));
+    // The kernels run without the plan, so no strategy trial can hand part
+    // of a kernel's samples to another strategy; the plan rows say what
+    // their runs ended with.
+    assert!(
+        out.kernels
+            .iter()
+            .all(|r| r.outcome == "the method as such"),
+        "{}",
+        out.markdown
+    );
+    assert!(out.markdown.contains("| after the strategy trial |"));
+    use ltcguide::experiment::ablation::trial_outcome;
+    use ltcguide::guiding::trial::{CHEAPER_WEIGHTS, FALLBACK_IMAGE};
+    assert_eq!(
+        trial_outcome(Some(&format!(
+            "plan: … | guiding does not pay here …, and {FALLBACK_IMAGE}"
+        ))),
+        "path tracing with NEE: the image holds its passes alone"
+    );
+    assert_eq!(
+        trial_outcome(Some(&format!(
+            "plan: … | product {CHEAPER_WEIGHTS} (efficiency …)"
+        ))),
+        "radiance weights"
+    );
+    assert_eq!(
+        trial_outcome(Some("plan: … | plan disabled")),
+        "the method as such"
+    );
     assert!(
         out.plan_line
             .contains("every vertex takes radiance weights"),

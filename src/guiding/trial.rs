@@ -64,6 +64,11 @@ pub const EARLY_FALLBACK_LEAD: f64 = 4.0;
 /// (`experiment::cost` looks for these words).
 pub const FALLBACK_IMAGE: &str = "the image holds path tracing's passes alone";
 
+/// How a plan line says that the model's weights lost the trial to the
+/// cheaper ones (`experiment::ablation` and `scripts/ratios.py` look for
+/// these words).
+pub const CHEAPER_WEIGHTS: &str = "weights do not pay here: the rest of the run uses the cheaper";
+
 struct Side {
     strategy: Strategy,
     film: Film,
@@ -203,11 +208,11 @@ impl StrategyTrial {
             let (em, ec) = (guided.1, eff(Strategy::Cheaper));
             let cheaper_wins = ec > em;
             weights_note = format!(
-                "{model} weights {} (efficiency {em:.3e}, {name} weights {ec:.3e}, measured on {} + {} spp)",
+                "{model} {} (efficiency {em:.3e}, {name} weights {ec:.3e}, measured on {} + {} spp)",
                 if cheaper_wins {
-                    "do not pay here: the rest of the run uses the cheaper"
+                    CHEAPER_WEIGHTS
                 } else {
-                    "pay here; kept over the cheaper"
+                    "weights pay here; kept over the cheaper"
                 },
                 model_side.film.spp,
                 c.film.spp,
