@@ -451,6 +451,27 @@ fn merge_compares_the_exact_budget_where_recorded() {
     }
 }
 
+/// Under `--clock cpu` a run's budget is per thread, so runs on another
+/// thread count had other compute for the same budget: not pooled.
+#[test]
+fn merge_refuses_runs_on_other_threads() {
+    let (a, b, out) = (temp("ta"), temp("tb"), temp("tout"));
+    let opts = |dir: &Path, first_run, threads| CompareOptions {
+        first_run,
+        threads,
+        use_plan: false,
+        ..compare_options(vec![Method::Pt], dir)
+    };
+    run_compare(&tiny(), &flat_reference(), &opts(&a, 0, 1)).unwrap();
+    run_compare(&tiny(), &flat_reference(), &opts(&b, 1, 2)).unwrap();
+    let err = merge(&out, &[a.clone(), b.clone()], false).unwrap_err();
+    assert!(err.contains("differ in threads or machine"), "{err}");
+    assert!(!out.exists());
+    for d in [a, b] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
 /// Studies measured against different references are not pooled; one that
 /// never recorded its reference is, and the pooled summary says which
 /// sources could not be checked.

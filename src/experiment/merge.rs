@@ -177,6 +177,12 @@ pub fn merge(out: &Path, sources: &[PathBuf], overwrite: bool) -> Result<Merged,
         if s.settings != first.settings {
             return Err(differs("path settings", &first.settings, &s.settings));
         }
+        // The budget is per thread (`--clock cpu`) or per run (`wall`), so
+        // runs on other thread counts or another machine had other compute
+        // for the same budget: pooled, their means would mix the two.
+        if s.machine != first.machine {
+            return Err(differs("threads or machine", &first.machine, &s.machine));
+        }
         let m = methods_in_order(rows);
         if m != methods {
             return Err(differs("methods", &methods.join(","), &m.join(",")));
@@ -354,20 +360,15 @@ fn pooled_summary(
     costs: &[CostRow],
 ) -> String {
     let first = &parsed[0].summary;
-    let mut machines: Vec<&str> = Vec::new();
-    for Source { summary: s, .. } in parsed {
-        if !machines.contains(&s.machine.as_str()) {
-            machines.push(&s.machine);
-        }
-    }
     let mut s = String::new();
     let _ = writeln!(s, "# {}{SUMMARY_TITLE_SUFFIX}\n", first.scene);
+    // `merge` pools only sources of one machine phrase.
     let _ = writeln!(
         s,
         "{}{}, {}.\n",
         first.budget,
         runs_phrase(rows),
-        machines.join("; ")
+        first.machine
     );
     let sources: Vec<String> = parsed
         .iter()
