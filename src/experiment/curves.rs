@@ -194,6 +194,15 @@ fn value_at(run: &[&CurveRow], t: f64, pick: fn(&CurveRow) -> f64) -> f64 {
     }
 }
 
+/// When a curve reaches an error: the time, and whether the curve was
+/// already there at its first point (then the time is an upper bound: the
+/// curve got there at or before its first snapshot).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reached {
+    pub seconds: f64,
+    pub at_first_point: bool,
+}
+
 /// The time from which a (log-log interpolated) mean curve is at or below
 /// `error` up to its end, or `None` if its last point is above it.
 ///
@@ -203,22 +212,29 @@ fn value_at(run: &[&CurveRow], t: f64, pick: fn(&CurveRow) -> f64) -> f64 {
 /// above it has not reached it. So a method whose final mean error is above
 /// the target never gets there, and one whose curve is monotone gets there
 /// at its first crossing.
-pub fn time_to_error(seconds: &[f64], errors: &[f64], error: f64) -> Option<f64> {
+pub fn time_to_error(seconds: &[f64], errors: &[f64], error: f64) -> Option<Reached> {
     let n = seconds.len().min(errors.len());
     if n == 0 || !(errors[n - 1] <= error) {
         return None;
     }
     let Some(k) = (0..n).rev().find(|&k| !(errors[k] <= error)) else {
-        return Some(seconds[0]);
+        return Some(Reached {
+            seconds: seconds[0],
+            at_first_point: true,
+        });
     };
     let (e0, e1) = (errors[k], errors[k + 1]);
     let (t0, t1) = (seconds[k], seconds[k + 1]);
-    if e0 > 0.0 && e1 > 0.0 && error > 0.0 && t0 > 0.0 {
+    let seconds = if e0 > 0.0 && e1 > 0.0 && error > 0.0 && t0 > 0.0 {
         let f = (error.ln() - e0.ln()) / (e1.ln() - e0.ln());
-        Some((t0.ln() + f * (t1 / t0).ln()).exp())
+        (t0.ln() + f * (t1 / t0).ln()).exp()
     } else {
-        Some(t1)
-    }
+        t1
+    };
+    Some(Reached {
+        seconds,
+        at_first_point: false,
+    })
 }
 
 #[cfg(test)]
@@ -314,15 +330,20 @@ mod tests {
         // error = 1/t: reaching 0.25 takes t = 4, between samples at 2 and 8.
         let t = [1.0, 2.0, 8.0];
         let e = [1.0, 0.5, 0.125];
-        assert!((time_to_error(&t, &e, 0.25).unwrap() - 4.0).abs() < 1e-9);
-        assert_eq!(time_to_error(&t, &e, 2.0), Some(1.0));
+        let reached = time_to_error(&t, &e, 0.25).unwrap();
+        assert!((reached.seconds - 4.0).abs() < 1e-9 && !reached.at_first_point);
+        let first = Reached {
+            seconds: 1.0,
+            at_first_point: true,
+        };
+        assert_eq!(time_to_error(&t, &e, 2.0), Some(first));
         assert_eq!(time_to_error(&t, &e, 0.01), None);
         // A curve that dips below the target and rises above it again
         // reaches it at its last crossing, not its first; one that ends
         // above it never does.
         let t = [1.0, 2.0, 4.0, 8.0];
         let e = [1.0, 0.1, 0.5, 0.125];
-        assert!((time_to_error(&t, &e, 0.25).unwrap() - 4.0 * 2f64.sqrt()).abs() < 1e-9);
+        assert!((time_to_error(&t, &e, 0.25).unwrap().seconds - 4.0 * 2f64.sqrt()).abs() < 1e-9);
         assert_eq!(time_to_error(&t[..3], &e[..3], 0.25), None);
         assert_eq!(time_to_error(&[], &[], 1.0), None);
         let (m, s) = mean_std(&[1.0, 2.0, 3.0]);

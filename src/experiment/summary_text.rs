@@ -126,7 +126,8 @@ pub fn speedup_section(curves: &[MeanCurve]) -> String {
             s,
             "How much sooner each method's mean curve reaches the final mean error of `radiance` \
              and stays at or below it (ratio of times; > 1 means faster; — means it does not end \
-             there within the budget). The mean curves average the runs at common times.\n"
+             there within the budget; ≥ means the curve was there at its first point, so the \
+             speedup is at least that). The mean curves average the runs at common times.\n"
         );
         let _ = writeln!(s, "| method | relMSE | MAE |");
         let _ = writeln!(s, "|---|---|---|");
@@ -141,7 +142,11 @@ pub fn speedup_section(curves: &[MeanCurve]) -> String {
                     Some((err, t_base)) => {
                         let errs: Vec<f64> = pick(c).iter().map(|e| e.0).collect();
                         match time_to_error(&c.seconds, &errs, err) {
-                            Some(t) => format!("{:.2}×", t_base / t),
+                            Some(t) => format!(
+                                "{}{:.2}×",
+                                if t.at_first_point { "≥ " } else { "" },
+                                t_base / t.seconds
+                            ),
                             None => "—".into(),
                         }
                     }
@@ -177,4 +182,32 @@ pub fn runs_phrase_span(line: &str) -> Result<(usize, usize), String> {
         + runs_at
         + 1;
     Ok((from, to))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn curve(method: &str, seconds: &[f64], errors: &[f64]) -> MeanCurve {
+        let e: Vec<(f64, f64)> = errors.iter().map(|&e| (e, 0.0)).collect();
+        MeanCurve {
+            method: method.into(),
+            seconds: seconds.to_vec(),
+            mae: e.clone(),
+            relmse: e,
+        }
+    }
+
+    /// A curve already below the target at its first point got there at or
+    /// before that point: its speedup is a lower bound, and says so.
+    #[test]
+    fn a_speedup_from_the_first_point_is_a_lower_bound() {
+        let radiance = curve("radiance", &[1.0, 2.0, 4.0], &[4.0, 2.0, 1.0]);
+        let early = curve("pt", &[0.5, 2.0, 4.0], &[0.9, 0.5, 0.25]);
+        let crossing = curve("product", &[1.0, 2.0, 4.0], &[2.0, 1.0, 0.5]);
+        let s = speedup_section(&[radiance, early, crossing]);
+        assert!(s.contains("| pt | ≥ 8.00× | ≥ 8.00× |"), "{s}");
+        assert!(s.contains("| product | 2.00× | 2.00× |"), "{s}");
+        assert!(s.contains("| radiance | 1.00× | 1.00× |"), "{s}");
+    }
 }
