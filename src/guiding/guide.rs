@@ -211,13 +211,15 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
     }
 
     fn record(&self, recorder: &mut RecordBuffer, vertices: &[PathVertex], pass: u64) {
-        for v in vertices.iter().filter(|v| v.guided) {
+        for v in vertices.iter().filter(|v| v.recorded) {
             let p_mix = v.pdf_mix;
             let incident = luminance(v.radiance);
             recorder.push(Record {
                 position: v.p,
                 direction: v.dir,
-                radiance: incident / p_mix,
+                // ∫L dω over the sphere is estimated from every sample of
+                // the mixture: a delta sample adds 0 to it but counts in N.
+                radiance: if v.delta { 0.0 } else { incident / p_mix },
                 product: luminance(v.bsdf_value * v.radiance) / p_mix,
                 bsdf_pdf: v.pdf_bsdf,
                 guide_pdf: v.pdf_guide,

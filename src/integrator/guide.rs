@@ -55,8 +55,14 @@ pub struct PathVertex {
     pub pdf_bsdf: f32,
     pub pdf_guide: f32,
     pub bsdf_fraction: f32,
-    /// False for delta vertices, which are never recorded.
-    pub guided: bool,
+    /// The vertex lies where the tree guides (its material has a non-delta
+    /// lobe): it is recorded, as a sample of the mixture drawn there.
+    pub recorded: bool,
+    /// A delta lobe was sampled (smooth plastic's coat): the sample counts
+    /// in the tree's statistical weight but splats no radiance, since no
+    /// solid-angle direction was drawn (`bsdf_value` is the lobe's mass and
+    /// `pdf_bsdf` its probability).
+    pub delta: bool,
     /// True when a guide distribution took part in the mixture (so the
     /// sample says something about the BSDF fraction).
     pub guide_used: bool,

@@ -297,7 +297,31 @@ pub fn trace_path<G: Guide>(
                 if f == Spectrum::ZERO {
                     // Guided into a direction the BSDF does not reflect to
                     // (e.g. below the horizon): a valid zero-valued sample.
+                    // It still counts in the tree's statistical weight N,
+                    // or F/(N·Ω) would overstate the mean radiance by the
+                    // share of such samples (18–25 % on a glossy panel),
+                    // and with it ADRRS's adjoint. Adam skips it: its
+                    // gradient is exactly 0, and a step on it would only
+                    // move θ by momentum.
                     counters.guided_below_horizon += (wi.z * wo.z <= 0.0) as u64;
+                    if learning {
+                        scratch.vertices.push(PathVertex {
+                            p: it.p,
+                            dir,
+                            radiance: Spectrum::ZERO,
+                            throughput: Spectrum::ZERO,
+                            bsdf_value: Spectrum::ZERO,
+                            pdf_mix: p,
+                            pdf_bsdf: pb,
+                            pdf_guide: pg,
+                            bsdf_fraction: a,
+                            recorded: true,
+                            delta: false,
+                            guide_used: false,
+                            throughput_pdf: crate::math::luminance(throughput) * p,
+                            depth: scratch.vertices.len() as u32,
+                        });
+                    }
                     break;
                 }
                 (wi_world, weight, pdf_mix, is_delta, eta) = (dir, f / p, p, false, 1.0);
@@ -319,10 +343,13 @@ pub fn trace_path<G: Guide>(
                     // proposes a delta direction, so the sample's probability
                     // is α·p_lobe. `render` refuses α = 0 where a guided BSDF
                     // has a delta lobe, since that lobe would never be sampled.
+                    // For Adam, f_value is the lobe's mass (weight × lobe
+                    // probability), so that f·L/p_mix is the sample's F/p as
+                    // for a solid-angle sample.
                     let a = guide_vertex.as_ref().map_or(1.0, |g| g.bsdf_fraction());
                     (wi_world, weight, pdf_mix, is_delta, eta) =
                         (dir, s.weight / a, a * s.pdf, true, s.eta);
-                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, a, s.weight);
+                    (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, a, s.weight * s.pdf);
                 } else if let Some(g) = guide_vertex.as_mut() {
                     let a = g.bsdf_fraction();
                     let pg = g.pdf(dir);
@@ -352,8 +379,14 @@ pub fn trace_path<G: Guide>(
                 pdf_bsdf,
                 pdf_guide,
                 bsdf_fraction: alpha,
-                guided: !is_delta,
-                guide_used: has_guide && !is_delta,
+                // Delta samples at a guided vertex are samples of its
+                // mixture too: they count in N, and they tell Adam what
+                // BSDF sampling buys there (Müller 2019 keeps them; without
+                // them a smooth-plastic coat drove α to its floor and the
+                // variance up tenfold).
+                recorded: location.is_some(),
+                delta: is_delta,
+                guide_used: has_guide,
                 throughput_pdf: crate::math::luminance(throughput_before) * pdf_mix,
                 depth,
             });
