@@ -359,7 +359,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         ltcguide::render::check_bsdf_fraction(a)?;
         if a == 0.0 {
             eprintln!(
-                "warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples"
+                "warning: --bsdf-fraction 0 disables BSDF sampling; directions the guide does not cover get no samples, so the image can be biased"
             );
         }
     }
@@ -499,7 +499,16 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         let Some(tree) = &result.tree else {
             return Err(ALPHA_NEEDS_GUIDING.into());
         };
-        ltcguide::guiding::aov::write_alpha_aov(&scene, tree, &args.out)?;
+        if s.plan
+            .as_deref()
+            .is_some_and(|p| p.contains(ltcguide::guiding::trial::FALLBACK_IMAGE))
+        {
+            eprintln!(
+                "note: the image holds path tracing's passes alone; the alpha AOV shows the \
+                 fractions guiding had learned when its trial ended"
+            );
+        }
+        ltcguide::guiding::aov::write_alpha_aov(&scene, tree, args.bsdf_fraction, &args.out)?;
     }
     if let Some(path) = &args.stats_json {
         let json = serde_json::to_string_pretty(s).map_err(|e| e.to_string())?;

@@ -27,11 +27,21 @@ pub fn alpha_aov_paths(out: &Path) -> (PathBuf, PathBuf) {
     (exr, png)
 }
 
-/// Writes [`alpha_aov`] next to the render `out` as `OUT-alpha.exr` (α in
-/// every channel, 0 where there is no vertex) and a false-colour PNG
-/// (black there).
-pub fn write_alpha_aov(scene: &Scene, tree: &SdTree, out: &Path) -> Result<(), String> {
-    let alpha = alpha_aov(scene, tree);
+/// Writes the α the render used next to the render `out` as
+/// `OUT-alpha.exr` (α in every channel, 0 where there is no vertex) and a
+/// false-colour PNG (black there): [`alpha_aov`], or `fixed` (a
+/// `--bsdf-fraction`) wherever there is a vertex, since Adam still trains
+/// the leaves' fractions that such a run never uses.
+pub fn write_alpha_aov(
+    scene: &Scene,
+    tree: &SdTree,
+    fixed: Option<f32>,
+    out: &Path,
+) -> Result<(), String> {
+    let mut alpha = alpha_aov(scene, tree);
+    if let Some(a) = fixed {
+        alpha.iter_mut().flatten().for_each(|v| *v = a);
+    }
     let (w, h) = (scene.camera.width, scene.camera.height);
     let (exr, png) = alpha_aov_paths(out);
     let values: Vec<glam::Vec3> = alpha
