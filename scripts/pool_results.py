@@ -82,6 +82,13 @@ def settings_lines(summary_text):
     return budget, path, methods
 
 
+def reference_of(summary_text):
+    """The reference fingerprint of a summary's hidden study line (summaries written
+    before session 44 have none: None)."""
+    m = re.search(r"<!-- ltcguide study:.*?reference=([^;>]*?)\s*(?:;|-->)", summary_text)
+    return m.group(1).strip() if m else None
+
+
 def main():
     args = sys.argv[1:]
     replace = "--replace" in args
@@ -119,6 +126,13 @@ def main():
             if mine != theirs:
                 sys.exit(f"{scene}: the new comparison's settings differ from the page's "
                          f"({theirs} against {mine}); nothing written")
+            # `merge` checks this when pooling; a replacement must be measured
+            # against the same reference too, where both summaries recorded it.
+            refs = [reference_of(open(os.path.join(d, "summary.md")).read())
+                    for d in (folder, os.path.join(new_root, scene))]
+            if None not in refs and refs[0] != refs[1]:
+                sys.exit(f"{scene}: the new comparison's reference ({refs[1]}) is not the page's "
+                         f"({refs[0]}); nothing written")
     if text.count(RATIOS_HEADING) != 1:
         sys.exit(f"{page}: no single '{RATIOS_HEADING}' section; nothing written")
     added = []

@@ -10,8 +10,9 @@ each summary's body (all but its first two lines, as results.sh and
 roulette_study.sh copy it), so the old body is replaced by the new one; a body
 that is not found exactly once in its page stops the script before anything of
 that page is written. Each page then says, under its header, that this was done
-and at which commit. Nothing else of a page changes: the final errors, their
-ratios and the plan lines come from the runs' last rows, which replot leaves alone.
+and at which commit. Nothing else of a page changes: replot rewrites the final-errors
+table from the same last rows of curves.csv (so its numbers stay), and the ratios and
+plan lines are left alone.
 
 Usage: scripts/replot_pages.py [BIN]   (BIN defaults to target/release/ltcguide)
 """
