@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 mod bitmap8;
 pub use bitmap8::Bitmap8;
+pub mod jpeg;
 
 /// A linear-RGB image, row 0 at the top.
 #[derive(Clone, Debug)]
@@ -185,8 +186,13 @@ pub fn load_bitmap(path: &Path, raw: bool) -> Result<Texture, String> {
 fn decode_file(path: &Path) -> Result<image::DynamicImage, String> {
     let bytes =
         std::fs::read(path).map_err(|e| format!("cannot read '{}': {e}", path.display()))?;
-    let img = image::load_from_memory(&bytes)
-        .map_err(|e| format!("cannot decode image '{}': {e}", path.display()))?;
+    // JPEGs go through libjpeg, as in Mitsuba (see [`jpeg`]).
+    let img = if jpeg::is_jpeg(&bytes) {
+        jpeg::decode(&bytes)
+    } else {
+        image::load_from_memory(&bytes).map_err(|e| e.to_string())
+    }
+    .map_err(|e| format!("cannot decode image '{}': {e}", path.display()))?;
     if img.width() == 0 || img.height() == 0 {
         return Err(format!("image '{}' is empty", path.display()));
     }
