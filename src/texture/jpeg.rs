@@ -1,6 +1,16 @@
-//! JPEG decoding through the system libjpeg(-turbo) with the library's
+//! JPEG decoding through libjpeg-turbo's decoder with the library's
 //! defaults, which is how Mitsuba 3 reads JPEG textures (`Bitmap::read_jpeg`:
 //! islow IDCT, "fancy" triangle chroma upsampling, fixed-point YCbCr → RGB).
+//!
+//! The library is the libjpeg-turbo-derived C code vendored in the
+//! `mozjpeg-sys` crate (its decoder is libjpeg-turbo's; mozjpeg changes the
+//! encoder), compiled by that crate's build script without SIMD and linked
+//! statically: building needs a C compiler, no system libjpeg. On the
+//! staircase and other scene textures it decodes byte for byte as the system
+//! libjpeg-turbo 2.1.5 does. A small C shim (`jpeg_shim.c`, compiled by
+//! `build.rs` against mozjpeg-sys's headers) drives it and turns libjpeg's
+//! fatal errors into error returns with `longjmp`, so no error unwinds
+//! through Rust frames.
 //!
 //! The `image` crate's decoder (zune-jpeg) rounds its 4:2:0 chroma
 //! upsampling twice, half up each time, which raises Cb and Cr by about a
@@ -8,6 +18,10 @@
 //! and less green than libjpeg's (up to +0.7 % in blue on a texture's linear
 //! mean), enough to bias renders against Mitsuba references by a few
 //! tenths of a percent per channel.
+
+// Only the shim calls into libjpeg; this keeps mozjpeg-sys (and with it the
+// static library that defines the `jpeg_*` symbols) in the link.
+use mozjpeg_sys as _;
 
 use std::ffi::{c_char, c_int, c_uint};
 
@@ -72,7 +86,8 @@ mod tests {
     use super::*;
 
     /// 48×32 RGB noise written by libjpeg-turbo 2.1.5 (`jpeg_set_defaults`,
-    /// quality 90: 4:2:0 chroma).
+    /// quality 90: 4:2:0 chroma). The sums below are the system
+    /// libjpeg-turbo 2.1.5's decode, which the vendored decoder matches.
     const NOISE_420: &[u8] = include_bytes!("../../tests/fixtures/noise_420.jpg");
 
     fn channel_sums(img: &image::RgbImage) -> [u64; 3] {

@@ -1,6 +1,10 @@
-/* JPEG decoding through the system libjpeg(-turbo), as Mitsuba 3 decodes:
+/* JPEG decoding through libjpeg-turbo's decoder, as Mitsuba 3 decodes:
  * library defaults (islow IDCT, fancy chroma upsampling, the library's
- * fixed-point YCbCr -> RGB). See src/texture/jpeg.rs. */
+ * fixed-point YCbCr -> RGB). The library is the copy vendored in the
+ * mozjpeg-sys crate, linked statically; build.rs compiles this file against
+ * that copy's jpeglib.h and generated jconfig.h (DEP_JPEG_INCLUDE), not a
+ * system libjpeg. Errors longjmp back here and are returned with a message,
+ * never unwound through Rust. See src/texture/jpeg.rs. */
 #include <setjmp.h>
 #include <stddef.h>
 #include <stdio.h>
