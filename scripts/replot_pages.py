@@ -60,8 +60,10 @@ def main():
             text = text.replace(olds[f], new, 1)
         note = (f"{MARK} (and cost sections from `runs.csv`) at ltcguide {commit} on {when}: "
                 f"the runs of a method are averaged at common times, a method reaches an error "
-                f"when its curve stays at or below it, and a cost section names the runs whose "
-                f"image holds path tracing's passes alone, whose spp is not what they traced.\n")
+                f"when its curve stays at or below it (a speedup marked ≥ was reached by the "
+                f"curve's first point, so it is a lower bound), and a cost section names the runs "
+                f"whose image holds path tracing's passes alone, whose spp is not what they "
+                f"traced.\n")
         write_page(page, with_note(text, note, MARK))
         print(f"{page}: {len(folders)} comparisons redrawn")
 
