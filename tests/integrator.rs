@@ -335,6 +335,18 @@ fn reused_record_buffers_hold_exactly_the_calls_records() {
     assert_eq!(as_records(&fresh), as_records(&reused));
 }
 
+/// The smooth-plastic floor scene, with NEE and classic roulette.
+fn smooth_plastic_floor() -> (ltcguide::scene::Scene, PathSettings) {
+    let scene = load_scene(&data("analytic/smooth_plastic_floor.xml")).unwrap();
+    let path = PathSettings {
+        nee: true,
+        max_depth: scene.max_depth,
+        roulette: RouletteMode::Classic,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    };
+    (scene, path)
+}
+
 /// Smooth plastic's coat is a delta lobe beside a diffuse base that is
 /// guided. BSDF sampling is chosen there with probability α, so a delta
 /// sample's weight is f/(α·p_lobe); without the 1/α the coat's reflection
@@ -346,13 +358,7 @@ fn reused_record_buffers_hold_exactly_the_calls_records() {
 fn guided_estimators_agree_with_pt_on_smooth_plastic() {
     use ltcguide::film::compare::compare_blocks;
     use ltcguide::render::{Method, RenderOptions, render};
-    let scene = load_scene(&data("analytic/smooth_plastic_floor.xml")).unwrap();
-    let path = PathSettings {
-        nee: true,
-        max_depth: scene.max_depth,
-        roulette: RouletteMode::Classic,
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    };
+    let (scene, path) = smooth_plastic_floor();
     let run = |method: Method, bsdf_fraction: Option<f32>, spp: u32, seed: u64| {
         let opts = RenderOptions {
             bsdf_fraction,
@@ -402,13 +408,7 @@ fn guided_estimators_agree_with_pt_on_smooth_plastic() {
 #[test]
 fn the_learned_fraction_keeps_sampling_a_delta_coat() {
     use ltcguide::render::{Method, RenderOptions, render};
-    let scene = load_scene(&data("analytic/smooth_plastic_floor.xml")).unwrap();
-    let path = PathSettings {
-        nee: true,
-        max_depth: scene.max_depth,
-        roulette: RouletteMode::Classic,
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    };
+    let (scene, path) = smooth_plastic_floor();
     let total_variance = |bsdf_fraction: Option<f32>| {
         let opts = RenderOptions {
             bsdf_fraction,
