@@ -22,7 +22,8 @@ pub struct AblationRow {
     pub seconds: f64,
     pub spp: u32,
     pub paths_per_second: f64,
-    /// What the run rendered after its strategy trial, from its plan line.
+    /// What the run rendered after its strategy trial, from its plan line
+    /// ("no trial" for the plan rows run without the plan).
     pub outcome: &'static str,
 }
 
@@ -130,6 +131,9 @@ pub fn run_ablation(
         }
         let mut row = run(Method::Product, ProductKernel::Simd, use_plan, paper)?;
         row.variant = name.to_string();
+        if !use_plan {
+            row.outcome = "no trial";
+        }
         plan.push(row);
     }
     // The plan the "per-scene plan" row followed.
@@ -169,11 +173,7 @@ pub fn run_ablation(
             r.variant,
             r.seconds,
             100.0 * (1.0 - r.seconds / without),
-            if r.variant.contains("plan disabled") {
-                "no trial"
-            } else {
-                r.outcome
-            }
+            r.outcome
         );
     }
     Ok(AblationOutcome {
