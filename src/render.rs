@@ -8,6 +8,7 @@ use crate::guiding::guide::RadianceModel;
 use crate::guiding::product::{CosineLobes, ProductModel};
 use crate::guiding::schedule::TrainingStop;
 use crate::guiding::sdtree::SdTree;
+use crate::guiding::support::GuideSupport;
 use crate::guiding::train::{GuidingStats, render_guided};
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::PathSettings;
@@ -89,6 +90,9 @@ pub struct RenderOptions {
     /// first vertex's product lobe while it matches
     /// (`guiding::pixel_reuse`); off: the paper's lobe per vertex.
     pub pixel_reuse: bool,
+    /// Guided methods: the radiance weights over the sphere or on a
+    /// reflecting surface's hemisphere.
+    pub guide_support: GuideSupport,
     /// Follow the per-scene plan (and drop guiding where it does not pay).
     /// Off for measuring what the plan saves, and for comparing the guided
     /// methods as such.
@@ -126,6 +130,7 @@ impl Default for RenderOptions {
             cosine_lobes: CosineLobes::default(),
             product_vertices: crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
             pixel_reuse: true,
+            guide_support: GuideSupport::Sphere,
             use_plan: true,
             spatial_threshold: None,
             bsdf_fraction_l2: None,
@@ -154,8 +159,22 @@ impl RenderOptions {
         if let Some(l) = self.bsdf_fraction_l2 {
             crate::guiding::adam::check_l2(l)?;
         }
+        check_guide_support(self.method, self.guide_support)?;
         SnapshotPlan::check_times(&self.snapshot_times)
     }
+}
+
+/// Only radiance guiding has a choice of support: the product's glossy
+/// vertices clip their weights at the horizon already.
+pub fn check_guide_support(method: Method, support: GuideSupport) -> Result<(), String> {
+    if support == GuideSupport::Hemisphere && method == Method::Product {
+        return Err(
+            "--guide-support hemisphere applies to --method radiance; product \
+                    guiding already clips its glossy vertices' weights at the horizon"
+                .into(),
+        );
+    }
+    Ok(())
 }
 
 /// A fixed BSDF-sampling fraction (`--bsdf-fraction`) is a probability.
@@ -284,6 +303,12 @@ pub fn run_plan(scene: &Scene, opts: &RenderOptions) -> crate::plan::ScenePlan {
         plan.guiding = opts.method != Method::Pt;
         plan.reasons = vec!["plan disabled".into()];
     }
+    if plan.guiding && opts.guide_support == GuideSupport::Hemisphere {
+        plan.reasons.push(
+            "guide support: hemisphere (radiance times each cell's share above the shading plane)"
+                .into(),
+        );
+    }
     plan
 }
 
@@ -343,7 +368,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                 Method::Radiance => guided(render_guided(
                     scene,
                     opts,
-                    &RadianceModel,
+                    &RadianceModel {
+                        support: opts.guide_support,
+                    },
                     &mut clock,
                     &mut snapshots,
                     bar.as_ref(),

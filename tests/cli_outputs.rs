@@ -229,6 +229,10 @@ fn bad_arguments_are_refused_before_the_scene_is_read() {
             "--bsdf-fraction",
         ),
         (&["--adrrs-window", "0.5"], "--adrrs-window"),
+        (
+            &["--method", "product", "--guide-support", "hemisphere"],
+            "--guide-support hemisphere applies to --method radiance",
+        ),
         // Path tracing has no adjoint estimate: it ran with classic roulette.
         (&["--rr", "adrrs"], "--rr adrrs needs a guide"),
         // A clock is for a time budget; with --spp it would do nothing.

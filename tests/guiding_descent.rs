@@ -331,3 +331,79 @@ fn descent_is_stratified() {
     // right, all exactly.
     assert_eq!(counts, [512, 1024, 1536, 1024]);
 }
+
+/// Hemisphere weights (`guiding::support`) on random trees and normals: the
+/// same χ², bit-identity and normalisation checks as the radiance and
+/// product weights. Sampling keeps one weights object across samples and
+/// the pdf takes a fresh one per point, so the per-vertex memo and the
+/// remembered wholly-above cell cannot make a value depend on what was
+/// computed before.
+#[test]
+fn hemisphere_weights_sample_their_own_pdf() {
+    use ltcguide::directional::square_to_dir;
+    use ltcguide::guiding::descent::for_each_terminal_cell;
+    use ltcguide::guiding::support::HemisphereWeights;
+    let mut rng = Rng::new(404, 2);
+    for trial in 0..4 {
+        let tree = random_tree(&mut rng, 80 + 60 * trial);
+        let n = match trial {
+            0 => glam::Vec3::new(0.0, 0.0, 1.0),
+            _ => square_to_dir(rng.next_2d()),
+        };
+        // Normalisation over the terminal cells, in depth-first order, and
+        // the probability below the plane (by 64 points per terminal cell),
+        // against the sphere's: 0 to 8 % of it on these trees, whose
+        // zero-radiance children leave some nodes with radiance only below
+        // (the descent then takes the radiance), and where refinement stops
+        // at sub-cells within 1.5 of each other or under 1e-3 of the mass.
+        let below_of = |cells: Vec<(Cell, f64)>| {
+            let (mut total, mut below) = (0.0, 0.0);
+            for (cell, p) in cells {
+                total += p;
+                let (u0, v0, s) = cell.square_bounds();
+                let points = (0..64).filter(|i| {
+                    let q = Vec2::new(
+                        (u0 + (i % 8) as f64 / 8.0 * s + s / 16.0) as f32,
+                        (v0 + (i / 8) as f64 / 8.0 * s + s / 16.0) as f32,
+                    );
+                    n.dot(square_to_dir(q)) < 0.0
+                });
+                below += p * points.count() as f64 / 64.0;
+            }
+            (total, below)
+        };
+        let terminal = |mut weights: &mut dyn ChildWeights| {
+            let mut cells = Vec::new();
+            for_each_terminal_cell(&tree, &mut weights, |c, p| cells.push((c, p)));
+            cells
+        };
+        let (total, below) = below_of(terminal(&mut HemisphereWeights::new(n)));
+        let (_, sphere_below) = below_of(terminal(&mut RadianceWeights));
+        eprintln!("trial {trial}: below the plane {below:.4} (sphere {sphere_below:.4})");
+        assert!((total - 1.0).abs() < 1e-5, "trial {trial}: Σ p = {total}");
+        assert!(
+            below < 0.1 * sphere_below,
+            "trial {trial}: {below} of the mass below the plane, sphere {sphere_below}"
+        );
+
+        let mut srng = Rng::new(trial as u64, 17);
+        let mut kept = HemisphereWeights::new(n);
+        let out = chi2_square(
+            &chi2_cfg(),
+            || sample(&tree, &mut kept, srng.next_2d()).map(|s| s.0),
+            |p: DVec2| pdf(&tree, &mut HemisphereWeights::new(n), p.as_vec2()) as f64,
+        );
+        assert!(out.passed, "hemisphere trial {trial}: {}", out.message);
+        assert!((out.pdf_integral - 1.0).abs() < 2e-3, "{}", out.message);
+
+        let mut kept = HemisphereWeights::new(n);
+        for _ in 0..5000 {
+            let d = sample_descend(&tree, &mut kept, srng.next_2d()).unwrap();
+            let again = pdf_descend(&tree, &mut kept, d.point);
+            let fresh = pdf_descend(&tree, &mut HemisphereWeights::new(n), d.point);
+            assert_eq!(d.pdf_square.to_bits(), again.0.to_bits());
+            assert_eq!(d.pdf_square.to_bits(), fresh.0.to_bits());
+            assert_eq!(d.root_total.to_bits(), fresh.1.to_bits());
+        }
+    }
+}

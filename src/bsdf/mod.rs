@@ -391,6 +391,16 @@ impl Bsdf {
         self.has_smooth_lobes_only()
     }
 
+    /// True when the BSDF scatters only into ω_o's hemisphere of the shading
+    /// frame (every model but the dielectrics), so that f vanishes below it.
+    #[inline]
+    pub fn reflects_only(&self) -> bool {
+        !matches!(
+            self.model,
+            BsdfModel::Dielectric { .. } | BsdfModel::ThinDielectric { .. }
+        )
+    }
+
     /// True when the BSDF has a non-delta component (NEE and guiding apply).
     #[inline]
     pub fn has_non_delta(&self) -> bool {

@@ -2,7 +2,7 @@
 //! and pooling (`replot`, `merge`), the paper's Table 1 (`ablation`) and
 //! the product's attribution (`attribute`).
 
-use crate::{ProductArgs, ScheduleArgs, load};
+use crate::{GuidedArgs, ProductArgs, load};
 use clap::Args;
 use ltcguide::experiment::compare::NeeChoice;
 use ltcguide::film::exr_io::read_valid_image;
@@ -51,7 +51,7 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
     adrrs_window: f32,
     #[command(flatten)]
-    schedule: ScheduleArgs,
+    schedule: GuidedArgs,
     #[command(flatten)]
     product: ProductArgs,
     /// Guided methods: λ of the learned BSDF fraction's L2 term (as for
@@ -123,6 +123,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
+        guide_support: args.schedule.guide_support,
         bsdf_fraction_l2: args.bsdf_fraction_l2,
         side_by_side: args.side_by_side,
         use_plan: !args.no_plan,

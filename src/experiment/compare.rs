@@ -22,6 +22,7 @@ use crate::film::png_io::{write_png, write_png_rgb8};
 use crate::film::write_atomic;
 use crate::guiding::product::CosineLobes;
 use crate::guiding::schedule::TrainingStop;
+use crate::guiding::support::GuideSupport;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::render::{
     Budget, Method, RenderOptions, SnapshotPlan, TimeBase, render, render_side_by_side,
@@ -57,6 +58,9 @@ pub struct CompareOptions {
     pub cosine_lobes: CosineLobes,
     /// Product guiding's vertices per path with product weights (0: all).
     pub product_vertices: u32,
+    /// Guided methods: the radiance weights over the sphere or on a
+    /// reflecting surface's hemisphere.
+    pub guide_support: GuideSupport,
     /// Product guiding's reuse of a first-vertex lobe across a pixel's
     /// paths and its neighbours'.
     pub pixel_reuse: bool,
@@ -108,6 +112,15 @@ pub(super) fn l2_phrase(lambda: Option<f64>) -> String {
             format!(", BSDF fraction's L2 λ = {l}")
         }
         _ => String::new(),
+    }
+}
+
+/// The guide support in a settings line, when it is not the default, so
+/// that `merge` refuses to pool runs across it.
+fn support_phrase(support: GuideSupport) -> &'static str {
+    match support {
+        GuideSupport::Sphere => "",
+        GuideSupport::Hemisphere => ", guide support: hemisphere",
     }
 }
 
@@ -381,6 +394,13 @@ pub fn run_options(
         cosine_lobes: opts.cosine_lobes,
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
+        // Only radiance guiding has a choice of support (the product's
+        // glossy vertices clip at the horizon already).
+        guide_support: if method == Method::Radiance {
+            opts.guide_support
+        } else {
+            GuideSupport::Sphere
+        },
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
         use_plan: opts.use_plan,
         time_base: opts.time_base,
@@ -501,6 +521,11 @@ fn summary_markdown(
             } else {
                 format!(", training stops: {:?}", opts.training_stop).to_lowercase()
                     + &l2_phrase(opts.bsdf_fraction_l2)
+                    + if m == Method::Radiance {
+                        support_phrase(opts.guide_support)
+                    } else {
+                        ""
+                    }
             };
             format!("{}: {nee}, roulette {rr}{training}{cosine}", method_name(m))
         })

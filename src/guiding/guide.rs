@@ -3,10 +3,11 @@
 //! function (radiance for PPG, radiance × LTC integral for product
 //! guiding), mixed with BSDF sampling by the leaf's learned α.
 
-use super::descent::{self, ChildWeights, RadianceWeights};
+use super::descent::{self, ChildWeights};
 use super::quadtree::QuadTree;
 use super::record::{Record, RecordBuffer};
 use super::sdtree::SdTree;
+use super::support::{GuideSupport, HemisphereSlot, SupportWeights};
 use crate::integrator::guide::{Guide, GuideVertex, PathVertex, VertexCache, VertexContext};
 use crate::integrator::stats::RenderCounters;
 use crate::math::{Frame, luminance};
@@ -54,15 +55,30 @@ pub trait WeightModel: Sync {
     }
 }
 
-/// Practical path guiding: child weights are the stored radiance.
-pub struct RadianceModel;
+/// Practical path guiding: child weights are the stored radiance, over the
+/// whole sphere (Müller et al. 2017) or on a reflecting surface's
+/// hemisphere ([`GuideSupport`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RadianceModel {
+    pub support: GuideSupport,
+}
 
 impl WeightModel for RadianceModel {
-    type Weights<'a> = RadianceWeights;
-    type Cache = ();
+    type Weights<'a> = SupportWeights<'a>;
+    type Cache = HemisphereSlot;
 
-    fn weights<'a>(&'a self, _ctx: &VertexContext, _cache: &'a mut ()) -> Option<RadianceWeights> {
-        Some(RadianceWeights)
+    #[inline]
+    fn weights<'a>(
+        &'a self,
+        ctx: &VertexContext,
+        slot: &'a mut HemisphereSlot,
+    ) -> Option<SupportWeights<'a>> {
+        Some(slot.weights(
+            self.support,
+            ctx.frame.n,
+            ctx.wo_local,
+            ctx.bsdf.reflects_only(),
+        ))
     }
 
     fn name(&self) -> &'static str {
@@ -71,7 +87,7 @@ impl WeightModel for RadianceModel {
 
     fn adjoint(
         &self,
-        _weights: &RadianceWeights,
+        _weights: &SupportWeights<'_>,
         ctx: &VertexContext,
         _root_total: f32,
         root_radiance: [f32; 4],
@@ -251,6 +267,7 @@ fn record_seed(pass: u64, v: &PathVertex) -> u64 {
 mod tests {
     use super::*;
     use crate::bsdf::{Bsdf, BsdfModel};
+    use crate::guiding::descent::RadianceWeights;
     use crate::guiding::sdtree::SdTreeConfig;
 
     /// Radiance weights with an adjoint that is always NaN.
@@ -271,7 +288,7 @@ mod tests {
     }
 
     /// A vertex of a one-leaf tree whose root holds `root` in each cell.
-    fn vertex_with<M: WeightModel<Cache = ()>>(
+    fn vertex_with<M: WeightModel>(
         model: &M,
         root: f32,
         counters: &mut RenderCounters,
@@ -302,7 +319,7 @@ mod tests {
         };
         let at = guide.locate(ctx.p);
         guide
-            .vertex(&ctx, at, &mut (), counters)
+            .vertex(&ctx, at, &mut M::Cache::default(), counters)
             .map(|v| v.adjoint_estimate())
     }
 
@@ -311,11 +328,11 @@ mod tests {
     #[test]
     fn a_non_finite_root_total_is_counted() {
         let mut counters = RenderCounters::default();
-        assert!(vertex_with(&RadianceModel, f32::MAX, &mut counters).is_none());
+        assert!(vertex_with(&RadianceModel::default(), f32::MAX, &mut counters).is_none());
         assert_eq!(counters.guide_root_nonfinite, 1);
-        assert!(vertex_with(&RadianceModel, 0.0, &mut counters).is_none());
+        assert!(vertex_with(&RadianceModel::default(), 0.0, &mut counters).is_none());
         assert_eq!(counters.guide_root_nonfinite, 1);
-        let adjoint = vertex_with(&RadianceModel, 1.0, &mut counters).unwrap();
+        let adjoint = vertex_with(&RadianceModel::default(), 1.0, &mut counters).unwrap();
         assert!(adjoint.unwrap() > 0.0);
         assert_eq!(counters.guide_root_nonfinite, 1);
     }

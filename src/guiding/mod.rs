@@ -12,6 +12,8 @@
 //! - [`adrrs`]: adjoint-driven Russian roulette;
 //! - [`schedule`]: the training schedule;
 //! - [`combine`]: the inverse-variance combination of iterations;
+//! - [`support`]: radiance weights restricted to a reflecting surface's
+//!   hemisphere;
 //! - [`trial`]: the plan's measured choice between the guide's weights and
 //!   path tracing;
 //! - [`fallback_image`]: what a run that falls back to path tracing images.
@@ -53,5 +55,6 @@ pub mod quadtree;
 pub mod record;
 pub mod schedule;
 pub mod sdtree;
+pub mod support;
 pub mod train;
 pub mod trial;
