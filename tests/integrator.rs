@@ -426,6 +426,19 @@ fn the_learned_fraction_keeps_sampling_a_delta_coat() {
     );
 }
 
+/// The tilted diffuse plane under a uniform sky of radiance 1, with its
+/// one-bounce path settings, without NEE or roulette.
+fn floor_under_uniform_sky() -> (ltcguide::scene::Scene, PathSettings) {
+    let scene = load_scene(&data("analytic/floor_under_uniform_sky.xml")).unwrap();
+    let path = PathSettings {
+        nee: false,
+        max_depth: scene.max_depth,
+        roulette: RouletteMode::Off,
+        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+    };
+    (scene, path)
+}
+
 /// The tree estimates ∫L dω at a leaf as Σ(L/p)/N over the samples of the
 /// vertices' mixtures, so N must count every sample drawn, including the
 /// guided directions below the surface, whose radiance is 0. Left out, they
@@ -435,13 +448,7 @@ fn the_learned_fraction_keeps_sampling_a_delta_coat() {
 #[test]
 fn the_tree_counts_every_sample_of_the_mixture() {
     use ltcguide::render::{Method, RenderOptions, render};
-    let scene = load_scene(&data("analytic/floor_under_uniform_sky.xml")).unwrap();
-    let path = PathSettings {
-        nee: false,
-        max_depth: scene.max_depth,
-        roulette: RouletteMode::Off,
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    };
+    let (scene, path) = floor_under_uniform_sky();
     // At 8 spp the last training iteration guides with a coarse tree, whose
     // box splats leak flux below the tilted horizon: ~20 % of its guided
     // samples go there. Leaving them out of N gave 1.118 by the mean over
@@ -488,13 +495,7 @@ const PI_F64: f64 = std::f64::consts::PI;
 fn hemisphere_support_guides_above_the_surface_without_bias() {
     use ltcguide::guiding::support::GuideSupport;
     use ltcguide::render::{Method, RenderOptions, render};
-    let scene = load_scene(&data("analytic/floor_under_uniform_sky.xml")).unwrap();
-    let path = PathSettings {
-        nee: false,
-        max_depth: scene.max_depth,
-        roulette: RouletteMode::Off,
-        adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-    };
+    let (scene, path) = floor_under_uniform_sky();
     let mut summed_variance = [0.0f64; 2];
     let mut below_share = [0.0f64; 2];
     for (i, support) in [GuideSupport::Sphere, GuideSupport::Hemisphere]
