@@ -67,6 +67,13 @@ impl Cell {
         }
     }
 
+    /// Side length 2^-depth of the cell on the unit square, in f32: exact
+    /// down to depth 20, as are the dyadic origins `ix`·size and `iy`·size.
+    #[inline]
+    pub fn square_size(&self) -> f32 {
+        f32::from_bits((127 - self.depth) << 23)
+    }
+
     /// Solid angle of the cell: every cell at depth d covers 4π/4^d sr.
     #[inline]
     pub fn solid_angle(&self) -> f64 {

@@ -195,7 +195,7 @@ struct RenderArgs {
     #[command(flatten)]
     product: ProductArgs,
     #[command(flatten)]
-    schedule: GuidedArgs,
+    guided: GuidedArgs,
     /// Guided methods: fixed probability of BSDF sampling (default: learned per spatial leaf by Adam).
     #[arg(long)]
     bsdf_fraction: Option<f32>,
@@ -367,7 +367,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         ltcguide::guiding::adam::check_l2(l)?;
     }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
-    ltcguide::render::check_guide_support(args.method, args.schedule.guide_support)?;
+    ltcguide::render::check_guide_support(args.method, args.guided.guide_support)?;
     if let Some(a) = args.bsdf_fraction {
         ltcguide::render::check_bsdf_fraction(a)?;
         if a == 0.0 {
@@ -421,11 +421,11 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         snapshot_times: Vec::new(),
         bsdf_fraction: args.bsdf_fraction,
         product_kernel: args.product_kernel.into(),
-        training_stop: args.schedule.training_stop,
+        training_stop: args.guided.training_stop,
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
-        guide_support: args.schedule.guide_support,
+        guide_support: args.guided.guide_support,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
         bsdf_fraction_l2: args.bsdf_fraction_l2,

@@ -51,7 +51,7 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = ltcguide::guiding::adrrs::PAPER_WINDOW)]
     adrrs_window: f32,
     #[command(flatten)]
-    schedule: GuidedArgs,
+    guided: GuidedArgs,
     #[command(flatten)]
     product: ProductArgs,
     /// Guided methods: λ of the learned BSDF fraction's L2 term (as for
@@ -119,11 +119,11 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         path_for: default_path_settings,
         nee: args.nee,
         guided_roulette: Some((args.guided_rr, args.adrrs_window)),
-        training_stop: args.schedule.training_stop,
+        training_stop: args.guided.training_stop,
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
-        guide_support: args.schedule.guide_support,
+        guide_support: args.guided.guide_support,
         bsdf_fraction_l2: args.bsdf_fraction_l2,
         side_by_side: args.side_by_side,
         use_plan: !args.no_plan,

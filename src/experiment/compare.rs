@@ -115,6 +115,16 @@ pub(super) fn l2_phrase(lambda: Option<f64>) -> String {
     }
 }
 
+/// The guide support `method` runs with: only radiance guiding has a
+/// choice (the product's glossy vertices clip at the horizon already).
+fn support_for(method: Method, opts: &CompareOptions) -> GuideSupport {
+    if method == Method::Radiance {
+        opts.guide_support
+    } else {
+        GuideSupport::Sphere
+    }
+}
+
 /// The guide support in a settings line, when it is not the default, so
 /// that `merge` refuses to pool runs across it.
 fn support_phrase(support: GuideSupport) -> &'static str {
@@ -394,13 +404,7 @@ pub fn run_options(
         cosine_lobes: opts.cosine_lobes,
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
-        // Only radiance guiding has a choice of support (the product's
-        // glossy vertices clip at the horizon already).
-        guide_support: if method == Method::Radiance {
-            opts.guide_support
-        } else {
-            GuideSupport::Sphere
-        },
+        guide_support: support_for(method, opts),
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
         use_plan: opts.use_plan,
         time_base: opts.time_base,
@@ -521,11 +525,7 @@ fn summary_markdown(
             } else {
                 format!(", training stops: {:?}", opts.training_stop).to_lowercase()
                     + &l2_phrase(opts.bsdf_fraction_l2)
-                    + if m == Method::Radiance {
-                        support_phrase(opts.guide_support)
-                    } else {
-                        ""
-                    }
+                    + support_phrase(support_for(m, opts))
             };
             format!("{}: {nee}, roulette {rr}{training}{cosine}", method_name(m))
         })

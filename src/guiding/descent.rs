@@ -213,8 +213,7 @@ fn choose_child(u: Vec2, w: [f32; 4]) -> (usize, Vec2) {
 
 #[inline]
 fn cell_point(cell: Cell, r: Vec2) -> Vec2 {
-    // Dyadic origins and sizes are exact in f32 down to depth 20.
-    let size = f32::from_bits((127 - cell.depth) << 23);
+    let size = cell.square_size();
     let axis = |i: u32, r: f32| {
         let lo = i as f32 * size;
         let hi = (i + 1) as f32 * size;

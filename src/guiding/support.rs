@@ -44,7 +44,7 @@ pub enum GuideSupport {
 
 /// Where a cell lies against a plane through the origin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Side {
+enum Side {
     Above,
     Below,
     Straddles,
@@ -277,8 +277,10 @@ impl Plane {
         }
     }
 
-    /// Where `cell` (depth 1..=20) lies against the plane.
-    pub fn side(&self, cell: Cell) -> Side {
+    /// Where `cell` (depth 1..=20) lies against the plane (for the tests;
+    /// the weights classify cells through [`Self::share_in`]).
+    #[cfg(test)]
+    fn side(&self, cell: Cell) -> Side {
         let (z0, z1) = z_range(cell);
         self.side_in(&self.column(cell.depth, cell.iy), z0, z1)
     }
@@ -316,7 +318,7 @@ impl Plane {
 /// A cell's cos θ bounds, exact in f32 for dyadic cells down to depth 20.
 #[inline]
 fn z_range(cell: Cell) -> (f32, f32) {
-    let size = f32::from_bits((127 - cell.depth) << 23);
+    let size = cell.square_size();
     let z0 = 2.0 * (cell.ix as f32 * size) - 1.0;
     (z0, z0 + 2.0 * size)
 }
