@@ -667,11 +667,18 @@ fn attribution_pairs_differ_only_in_the_method() {
         other_roulette: RouletteMode::Classic,
         exact_integrals,
         bsdf_fraction_l2: None,
+        clock: TimeBase::Cpu,
         progress: false,
     };
     let diffuse = tiny();
     let out = run_attribution(&diffuse, &options(&diffuse, true)).unwrap();
     assert_eq!(out.factors.len(), 9, "{}", out.markdown);
+    assert!(
+        out.markdown
+            .contains("seconds of each render's own CPU time per thread"),
+        "{}",
+        out.markdown
+    );
     // No glossy first vertex: nothing to split there.
     assert!(out.at_glossy.is_empty() && !out.markdown.contains("At the glossy first vertices"));
     for f in &out.factors {
@@ -858,6 +865,7 @@ fn attribution_refuses_options_it_cannot_run() {
         other_roulette: RouletteMode::Classic,
         exact_integrals: false,
         bsdf_fraction_l2: None,
+        clock: TimeBase::Wall,
         progress: false,
     };
     assert!(check(&good).is_ok());

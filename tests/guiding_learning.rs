@@ -6,7 +6,9 @@ use ltcguide::directional::{SQUARE_TO_SOLID_ANGLE_PDF, dir_to_square, square_to_
 use ltcguide::guiding::build::QuadTreeBuilder;
 use ltcguide::guiding::descent::{RadianceWeights, pdf, sample_direction};
 use ltcguide::guiding::quadtree::QuadTree;
-use ltcguide::guiding::record::{Record, RecordBuffer, RecordStats, record_pass};
+use ltcguide::guiding::record::{
+    Record, RecordBuffer, RecordScratch, RecordStats, record_pass, record_pass_reusing,
+};
 use ltcguide::guiding::sdtree::{SdTree, SdTreeConfig};
 use ltcguide::math::PI;
 use ltcguide::sampling::{Rng, square_to_uniform_sphere};
@@ -456,6 +458,61 @@ fn sdtree_learns_a_space_varying_field_end_to_end() {
 /// pass by pass. The same records, buffered pass-major (one pass per call)
 /// or pixel-major (all passes in one call), teach every leaf the same θ to
 /// the bit, and a different order does change it (the test can fail).
+/// A training run sorts each call's records in memory kept from the
+/// previous call, sized for another tree and other records: recording
+/// through one reused scratch, while the tree splits between calls and the
+/// calls' records vary in number and thread split, teaches the tree what
+/// a fresh scratch for every call does, to the bit.
+#[test]
+fn recording_with_reused_memory_matches_fresh_memory() {
+    let mut rng = Rng::new(11, 3);
+    let calls: Vec<Vec<RecordBuffer>> = [300, 1500, 100, 2500]
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| {
+            let all = uniform_records(&mut rng, n, Vec3::ZERO, Vec3::ONE);
+            let parts = 1 + i;
+            let mut split = vec![RecordBuffer::default(); parts];
+            for (k, r) in all.records.iter().enumerate() {
+                split[k * parts / n].push(*r);
+            }
+            split
+        })
+        .collect();
+    let config = SdTreeConfig {
+        split_threshold: 200.0,
+        ..Default::default()
+    };
+    // Every call with a scratch of its own, or all with one scratch.
+    let learn = |reuse: bool| {
+        let mut t = SdTree::new(Vec3::ZERO, Vec3::ONE, config);
+        let mut s = RecordStats::default();
+        let mut kept = RecordScratch::default();
+        let mut leaves = Vec::new();
+        for buffers in &calls {
+            let mut fresh = RecordScratch::default();
+            let scratch = if reuse { &mut kept } else { &mut fresh };
+            s.merge(&record_pass_reusing(&mut t, buffers, scratch));
+            t.refine(0);
+            leaves.push(t.leaves().len());
+        }
+        (t, s, leaves)
+    };
+    let (fresh, fresh_stats, _) = learn(false);
+    let (reused, reused_stats, leaves) = learn(true);
+    assert!(
+        leaves.windows(2).any(|w| w[0] != w[1]),
+        "the tree never split between calls: {leaves:?}"
+    );
+    assert_eq!(fresh_stats, reused_stats);
+    assert_eq!(fresh.leaves().len(), reused.leaves().len());
+    for (a, b) in fresh.leaves().iter().zip(reused.leaves()) {
+        assert_eq!(a.sampling.nodes(), b.sampling.nodes());
+        assert_eq!(a.fraction, b.fraction);
+    }
+    assert!(fresh_stats.adam.steps > 0, "{fresh_stats:?}");
+}
+
 #[test]
 fn adam_steps_pass_by_pass_whatever_the_buffer_order() {
     let mut rng = Rng::new(5, 3);

@@ -39,7 +39,7 @@ use crate::guiding::sdtree::SdTree;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::ltc::ProductKernel;
 use crate::render::{
-    Budget, Method, RenderOptions, RenderResult, render_side_by_side, side_by_side_share,
+    Budget, Method, RenderOptions, RenderResult, TimeBase, render_side_by_side, side_by_side_share,
 };
 use crate::scene::Scene;
 
@@ -75,6 +75,12 @@ pub struct AttributeArgs {
     /// fractions (as for render; default 0.01).
     #[arg(long)]
     pub bsdf_fraction_l2: Option<f64>,
+    /// What the seconds factors measure: each render's own CPU seconds per
+    /// thread (the two renders of a pair run at once, and the scheduler
+    /// does not share the cores between them evenly: `src/cpu_clock.rs`),
+    /// or wall-clock seconds.
+    #[arg(long, value_enum, default_value_t = TimeBase::Cpu)]
+    pub clock: TimeBase,
 }
 
 impl AttributeArgs {
@@ -94,6 +100,7 @@ impl AttributeArgs {
             other_roulette: self.other_rr,
             exact_integrals: !self.no_exact,
             bsdf_fraction_l2: self.bsdf_fraction_l2,
+            clock: self.clock,
             progress: true,
         }
     }
@@ -117,6 +124,9 @@ pub struct AttributionOptions {
     pub exact_integrals: bool,
     /// λ of the learned BSDF fraction's L2 term (`None`: Adam's default).
     pub bsdf_fraction_l2: Option<f64>,
+    /// The clock of the seconds factors. With several threads per render,
+    /// the CPU clock counts the renders' serial phases at 1/threads.
+    pub clock: TimeBase,
     pub progress: bool,
 }
 
@@ -256,7 +266,9 @@ fn figures(r: RenderResult) -> Result<Figures, String> {
         .last()
         .ok_or("a guided render reported no iteration")?;
     Ok(Figures {
-        seconds: r.stats.seconds,
+        // The clock's seconds, as the iterations' (wall seconds on the
+        // wall clock).
+        seconds: r.stats.clock_seconds,
         final_seconds_per_spp: last.seconds / last.spp.max(1) as f64,
         final_variance: last.mean_variance,
         final_pixel_variance: r.last_iteration_variance,
@@ -364,6 +376,7 @@ pub fn run_attribution(
         path: opts.path,
         use_plan: false,
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        time_base: opts.clock,
         ..Default::default()
     };
     let roulette_name = |r: RouletteMode| format!("{r:?}").to_lowercase();
@@ -575,5 +588,34 @@ mod tests {
             per_seed: vec![0.5, 2.0],
         };
         assert!((f.mean() - 1.0).abs() < 1e-12);
+    }
+
+    /// The seconds factors are on the renders' clock: a render on the CPU
+    /// clock gives the figures its own CPU time per thread, whatever its
+    /// wall time (here made absurd, as a starved render's would be).
+    #[test]
+    fn figures_time_a_render_on_its_clock() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/analytic/sphere_over_plane.xml");
+        let scene = crate::scene::load_scene(&path).unwrap();
+        let opts = RenderOptions {
+            method: Method::Radiance,
+            budget: Budget::Spp(4),
+            threads: 1,
+            use_plan: false,
+            time_base: TimeBase::Cpu,
+            ..Default::default()
+        };
+        let mut r = crate::render::render(&scene, &opts).unwrap();
+        assert_eq!(r.stats.time_base, TimeBase::Cpu);
+        let clock = r.stats.clock_seconds;
+        assert!(
+            clock > 0.0 && clock <= r.stats.cpu_seconds + 1e-6,
+            "{clock}"
+        );
+        r.stats.seconds = 1e6;
+        let f = figures(r).unwrap();
+        assert_eq!(f.seconds, clock);
+        assert!(f.final_seconds_per_spp > 0.0 && f.final_seconds_per_spp <= clock);
     }
 }

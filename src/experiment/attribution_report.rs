@@ -4,6 +4,7 @@
 use super::attribution::{
     AttributionOptions, ClassSplit, EQUAL_TIME, EXPECTED_RELMSE, Factor, geometric_mean,
 };
+use crate::render::TimeBase;
 use crate::scene::Scene;
 use std::fmt::Write;
 
@@ -18,12 +19,16 @@ pub(super) fn markdown(
     let _ = writeln!(
         md,
         "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
-         NEE {}{}, every part of the method forced on. < 1 favours the product.\n",
+         NEE {}{}, every part of the method forced on, seconds {}. < 1 favours the product.\n",
         scene.name,
         opts.spp,
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
         super::compare::l2_phrase(opts.bsdf_fraction_l2),
+        match opts.clock {
+            TimeBase::Cpu => "of each render's own CPU time per thread",
+            TimeBase::Wall => "of wall-clock time",
+        },
     );
     factor_table(&mut md, "factor", opts.seeds as usize, rows);
     let values: String = alpha

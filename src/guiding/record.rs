@@ -139,22 +139,30 @@ impl RecordBuffer {
 }
 
 /// Memory a record takes while a training call holds it: itself in its
-/// thread's buffer, then its splat and Adam sample in [`record_pass`]'s
-/// per-leaf work.
-pub const RECORD_BYTES: u64 =
-    (size_of::<Record>() + size_of::<(Vec2, f32)>() + size_of::<AdamSample>()) as u64;
+/// thread's buffer, then its leaves, its splat and its Adam sample in
+/// [`record_pass`]'s per-run work.
+pub const RECORD_BYTES: u64 = (size_of::<Record>()
+    + size_of::<RecordLeaves>()
+    + size_of::<(Vec2, f32)>()
+    + size_of::<AdamSample>()) as u64;
 
 /// Memory the path records of one training call may fill (the buffers'
 /// capacity, grown by doubling, may reach twice that). A call renders up
-/// to 16 passes and holds all their records until it ends: 108 bytes per
-/// recorded vertex (staircase at 360×640: 87 MB a pass), so at 1920×1080 a
-/// 16-pass call would have held some 12 GB, and more than the machine has
+/// to 16 passes and holds all their records until it ends: 116 bytes per
+/// recorded vertex (staircase at 360×640: 93 MB a pass), so at 1920×1080 a
+/// 16-pass call would have held some 13 GB, and more than the machine has
 /// at 4K. Training calls are cut to the passes that fit. Every record is
 /// still recorded; between the extra calls Adam's BSDF fractions move on,
-/// as they do between the calls a time budget cuts. Staircase, radiance guiding,
-/// 64 spp, two threads: peak memory 1.84 → 1.41 GB, time unchanged
-/// (18.8 and 18.2 s); at 16 spp no call is cut (identical image).
-pub const RECORD_BUDGET_BYTES: u64 = 1 << 30;
+/// as they do between the calls a time budget cuts.
+///
+/// Measured on staircase, radiance guiding: at 64 spp with two threads,
+/// 1 GiB instead of no budget took peak memory from 1.84 to 1.41 GB, time
+/// unchanged (18.8 and 18.2 s). At 128 spp with one thread (two builds side
+/// by side), 256 MiB instead of 1 GiB took it from 1.50 to 0.83 GB, the
+/// page faults from 346 k to 180 k, and the run from 95.9 to 93.7 s, at
+/// the same error (relMSE 0.0473 and 0.0489, final-iteration variance
+/// 0.01467 and 0.01458).
+pub const RECORD_BUDGET_BYTES: u64 = 1 << 28;
 
 /// At most `n` passes, and no more than keep a call's records within
 /// [`RECORD_BUDGET_BYTES`], given the records a pass produced so far (or,
@@ -179,104 +187,172 @@ pub fn passes_within_record_budget(
 /// One Adam sample: (pass, [F/p, p_bsdf, p_guide, α used]).
 type AdamSample = (u64, [f32; 4]);
 
-/// Work for one leaf: directional splats and Adam samples, in record order.
-/// The Adam inputs are copied here rather than indexed: the leaves visit
-/// the records in scattered order, and fetching whole records by index
-/// cost more than the Adam steps themselves.
+/// An accepted record's leaves: where its jittered splat lands, and the
+/// leaf whose BSDF fraction it steps ([`NO_ADAM`] when it was not guided).
+type RecordLeaves = (u32, u32);
+const NO_ADAM: u32 = u32::MAX;
+
+/// The memory [`record_pass_reusing`] keeps from one training call to the
+/// next. Each run of buffers sorts its records' splats and Adam samples by
+/// leaf into flat arrays (a stable counting sort), whose capacity stays.
+/// Per-leaf lists allocated anew for every call took 43 % of a training
+/// run's page faults (staircase, radiance guiding, 128 spp, one thread:
+/// `perf record -e page-faults`), and the faults, 2.5 % of its time.
 #[derive(Default)]
-struct LeafWork {
-    splats: Vec<(Vec2, f32)>,
-    adam: Vec<AdamSample>,
+pub struct RecordScratch {
+    runs: Vec<RunWork>,
 }
 
-/// The splats and Adam samples of `buffers`' records, per leaf, in record
-/// order, with the counts of the guards.
-fn leaf_work(tree: &SdTree, buffers: &[RecordBuffer]) -> (Vec<LeafWork>, RecordStats) {
-    let mut stats = RecordStats::default();
-    let mut work: Vec<LeafWork> = (0..tree.leaves().len())
-        .map(|_| LeafWork::default())
-        .collect();
-    for r in buffers.iter().flat_map(|b| b.records.iter()) {
-        match validate(r) {
-            Err(RecordReject::NonFinite) => stats.rejected_non_finite += 1,
-            Err(RecordReject::ZeroPdf) => stats.rejected_zero_pdf += 1,
-            Err(RecordReject::Negative) => stats.rejected_negative += 1,
-            Ok(()) => {
-                stats.accepted += 1;
-                let own = tree.lookup(r.position);
-                let leaf = tree.leaf(own);
-                let mut rng = Rng::new(r.seed, 0x5d7e);
-                let jitter = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
-                let target = tree.lookup(r.position + jitter * leaf.size);
-                let dir = r.direction.normalize();
-                work[target as usize]
-                    .splats
-                    .push((dir_to_square(dir), r.radiance));
-                if r.guided {
-                    work[own as usize]
-                        .adam
-                        .push((r.pass, [r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]));
+/// One run's splats and Adam samples, grouped by leaf in record order:
+/// leaf i's are `splats[splat_start[i]..splat_start[i + 1]]`, and likewise
+/// for Adam.
+#[derive(Default)]
+struct RunWork {
+    leaves: Vec<RecordLeaves>,
+    splat_start: Vec<usize>,
+    adam_start: Vec<usize>,
+    splats: Vec<(Vec2, f32)>,
+    adam: Vec<AdamSample>,
+    stats: RecordStats,
+}
+
+impl RunWork {
+    fn splats(&self, leaf: usize) -> &[(Vec2, f32)] {
+        &self.splats[self.splat_start[leaf]..self.splat_start[leaf + 1]]
+    }
+
+    fn adam(&self, leaf: usize) -> &[AdamSample] {
+        &self.adam[self.adam_start[leaf]..self.adam_start[leaf + 1]]
+    }
+
+    /// Sorts `buffers`' accepted records by leaf, counting the guards.
+    /// The first sweep finds every record's leaves (two tree lookups and a
+    /// jitter), the second places its splat and Adam sample.
+    fn fill(&mut self, tree: &SdTree, buffers: &[RecordBuffer]) {
+        let n_leaves = tree.leaves().len();
+        self.stats = RecordStats::default();
+        self.leaves.clear();
+        self.splat_start.clear();
+        self.splat_start.resize(n_leaves + 1, 0);
+        self.adam_start.clear();
+        self.adam_start.resize(n_leaves + 1, 0);
+        let records = || buffers.iter().flat_map(|b| b.records.iter());
+        for r in records() {
+            match validate(r) {
+                Err(RecordReject::NonFinite) => self.stats.rejected_non_finite += 1,
+                Err(RecordReject::ZeroPdf) => self.stats.rejected_zero_pdf += 1,
+                Err(RecordReject::Negative) => self.stats.rejected_negative += 1,
+                Ok(()) => {
+                    self.stats.accepted += 1;
+                    let own = tree.lookup(r.position);
+                    let leaf = tree.leaf(own);
+                    let mut rng = Rng::new(r.seed, 0x5d7e);
+                    let jitter = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5;
+                    let target = tree.lookup(r.position + jitter * leaf.size);
+                    self.splat_start[target as usize + 1] += 1;
+                    let adam_leaf = if r.guided {
+                        self.adam_start[own as usize + 1] += 1;
+                        own
+                    } else {
+                        NO_ADAM
+                    };
+                    self.leaves.push((target, adam_leaf));
                 }
             }
         }
+        for i in 0..n_leaves {
+            self.splat_start[i + 1] += self.splat_start[i];
+            self.adam_start[i + 1] += self.adam_start[i];
+        }
+        // Every slot below is written once: the offsets count them.
+        self.splats.clear();
+        self.splats
+            .resize(self.splat_start[n_leaves], (Vec2::ZERO, 0.0));
+        self.adam.clear();
+        self.adam.resize(self.adam_start[n_leaves], (0, [0.0; 4]));
+        let mut next_splat = self.splat_start.clone();
+        let mut next_adam = self.adam_start.clone();
+        let accepted = records().filter(|r| validate(r).is_ok());
+        for (r, &(target, adam_leaf)) in accepted.zip(&self.leaves) {
+            let slot = &mut next_splat[target as usize];
+            self.splats[*slot] = (dir_to_square(r.direction.normalize()), r.radiance);
+            *slot += 1;
+            if adam_leaf != NO_ADAM {
+                let slot = &mut next_adam[adam_leaf as usize];
+                self.adam[*slot] = (r.pass, [r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]);
+                *slot += 1;
+            }
+        }
     }
-    (work, stats)
 }
 
 /// Records all buffers (in index order) into `tree`'s recording quadtrees
-/// and steps the leaves' BSDF fractions. Buffers are left untouched so the
-/// caller may reuse their allocations.
+/// and steps the leaves' BSDF fractions, with memory of its own; see
+/// [`record_pass_reusing`].
+pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
+    record_pass_reusing(tree, buffers, &mut RecordScratch::default())
+}
+
+/// Records all buffers (in index order) into `tree`'s recording quadtrees
+/// and steps the leaves' BSDF fractions, sorting the records in `scratch`,
+/// whose memory a training run keeps across its calls. Buffers are left
+/// untouched so the caller may reuse their allocations.
 ///
 /// Both stages run in parallel and keep the record order: contiguous runs
-/// of buffers are sorted into per-leaf work side by side, and each leaf
-/// then takes its runs' work in run order. Sorting the records into leaves
-/// on one thread had left the other core idle for a third of each
-/// training call (staircase, 64 spp, two threads: 1.35 s of a 4.0 s call).
-pub fn record_pass(tree: &mut SdTree, buffers: &[RecordBuffer]) -> RecordStats {
+/// of buffers are sorted into leaves side by side, and each leaf then takes
+/// its runs' work in run order. Sorting the records into leaves on one
+/// thread had left the other core idle for a third of each training call
+/// (staircase, 64 spp, two threads: 1.35 s of a 4.0 s call).
+pub fn record_pass_reusing(
+    tree: &mut SdTree,
+    buffers: &[RecordBuffer],
+    scratch: &mut RecordScratch,
+) -> RecordStats {
     // Two runs per thread balance the load; one thread needs one run.
     let threads = rayon::current_num_threads().max(1);
     let runs = if threads == 1 { 1 } else { 2 * threads };
     let run_len = buffers.len().div_ceil(runs).max(1);
-    let parts: Vec<(Vec<LeafWork>, RecordStats)> = buffers
-        .par_chunks(run_len)
-        .map(|b| leaf_work(tree, b))
-        .collect();
+    let chunks = buffers.len().div_ceil(run_len);
+    scratch.runs.resize_with(chunks, RunWork::default);
+    let work = &mut scratch.runs[..chunks];
+    let shared_tree: &SdTree = tree;
+    work.par_iter_mut()
+        .zip(buffers.par_chunks(run_len))
+        .for_each(|(run, b)| run.fill(shared_tree, b));
     let mut stats = RecordStats::default();
-    // Each leaf's work from every run, in run order.
-    let mut per_leaf: Vec<Vec<LeafWork>> = (0..tree.leaves().len())
-        .map(|_| Vec::with_capacity(parts.len()))
-        .collect();
-    for (work, s) in parts {
-        stats.merge(&s);
-        for (leaf, w) in per_leaf.iter_mut().zip(work) {
-            leaf.push(w);
-        }
+    for run in work.iter() {
+        stats.merge(&run.stats);
     }
+    let work = &*work;
     let adam_cfg = tree.config.adam;
     let leaf_adam: Vec<AdamStats> = tree
         .leaves_mut()
         .par_iter_mut()
-        .zip(per_leaf.into_par_iter())
-        .map(|(leaf, mut works)| {
-            for w in &works {
-                for &(p, v) in &w.splats {
+        .enumerate()
+        .map_init(Vec::new, |steps, (i, leaf)| {
+            for run in work {
+                for &(p, v) in run.splats(i) {
                     // Validated above: the quadtree's own guard cannot fire.
                     let _ = leaf.recording.record_box(p, v);
                 }
             }
             // A render call traces a pixel's passes one after the other;
-            // Adam, which steps sample by sample, sees them pass by pass (a
-            // stable sort: within a pass, in image order), as if the passes
-            // had been traced one at a time. Consecutive steps on one
-            // pixel's correlated samples had let the momentum drift
-            // (staircase, 16 spp: +12 % variance).
-            let mut adam = match works.len() {
-                1 => std::mem::take(&mut works[0].adam),
-                _ => works.iter().flat_map(|w| w.adam.iter().copied()).collect(),
-            };
-            adam.sort_by_key(|&(pass, _)| pass);
+            // Adam, which steps sample by sample, sees them pass by pass
+            // (within a pass, in image order), as if the passes had been
+            // traced one at a time. Consecutive steps on one pixel's
+            // correlated samples had let the momentum drift (staircase,
+            // 16 spp: +12 % variance). The record index makes the order
+            // total, so the unstable sort, which needs no buffer, keeps it.
+            steps.clear();
+            let in_record_order = work.iter().flat_map(|run| run.adam(i));
+            steps.extend(
+                in_record_order
+                    .enumerate()
+                    .map(|(k, &(pass, sample))| (pass, k, sample)),
+            );
+            steps.sort_unstable_by_key(|&(pass, k, _)| (pass, k));
             let mut s = AdamStats::default();
-            for (_, [product, bsdf_pdf, guide_pdf, alpha]) in adam {
+            for &(_, _, [product, bsdf_pdf, guide_pdf, alpha]) in steps.iter() {
                 let _: Result<(), NonFiniteGradient> = leaf
                     .fraction
                     .step_sample(&adam_cfg, product, bsdf_pdf, guide_pdf, alpha, &mut s);

@@ -9,7 +9,9 @@ use super::adam::AdamConfig;
 use super::combine::{combine, combine_counting, iteration_variance, pooled_mean};
 use super::fallback_image::FallbackImage;
 use super::guide::{SdGuide, WeightModel};
-use super::record::{RecordBuffer, RecordStats, passes_within_record_budget, record_pass};
+use super::record::{
+    RecordBuffer, RecordScratch, RecordStats, passes_within_record_budget, record_pass_reusing,
+};
 use super::schedule::{
     Budget as ScheduleBudget, IterationReport, Schedule, Step, TrainingEnd, TrainingStop,
 };
@@ -150,6 +152,7 @@ pub fn render_guided<M: WeightModel>(
     // The training calls' record buffers, one per row block, kept from call
     // to call so that their memory is reused (`render_passes_into`).
     let mut record_buffers: Vec<RecordBuffer> = Vec::new();
+    let mut record_scratch = RecordScratch::default();
     let mut pass = 0u64;
     // Set when the strategy trial measured path tracing more efficient.
     let mut fallback = String::new();
@@ -270,6 +273,7 @@ pub fn render_guided<M: WeightModel>(
                 if !training {
                     // No more records: the buffers' memory goes back.
                     record_buffers = Vec::new();
+                    record_scratch = RecordScratch::default();
                 }
                 let out = render_passes(
                     scene,
@@ -283,7 +287,8 @@ pub fn render_guided<M: WeightModel>(
                 let render_seconds = clock.seconds() - call_start;
                 counters.add(&out.counters);
                 if training {
-                    let call_records = record_pass(&mut tree, &record_buffers);
+                    let call_records =
+                        record_pass_reusing(&mut tree, &record_buffers, &mut record_scratch);
                     records_per_pass = Some(call_records.total() as f64 / n as f64);
                     records.merge(&call_records);
                 }
