@@ -355,6 +355,48 @@ fn guards_that_fire_are_reported_by_render_and_compare() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The same pixels always make the same EXR file, byte for byte, so a
+/// checksum tells whether a render was reproduced. Compressed on several
+/// threads, the blocks had been written in the order the threads finished
+/// them; eight writes of a noisy image (40 blocks of different compressed
+/// sizes) would then all have to finish alike.
+#[test]
+fn the_same_pixels_make_the_same_exr_file() {
+    use ltcguide::film::exr_io::{read_image, write_rgb};
+    let dir = work_dir("exr-bytes");
+    let (w, h) = (320, 640);
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let pixels: Vec<glam::Vec3> = (0..w * h)
+        .map(|i| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            // Smooth rows compress well, noisy ones do not: blocks of
+            // different sizes take different times.
+            let noise = if (i / w / 16) % 2 == 0 {
+                0.0
+            } else {
+                (state >> 40) as f32 / 1.6e7
+            };
+            glam::Vec3::new(0.25 + noise, (i % w) as f32 / w as f32, 0.5)
+        })
+        .collect();
+    let files: Vec<Vec<u8>> = (0..8)
+        .map(|k| {
+            let path = dir.join(format!("same-{k}.exr"));
+            write_rgb(&path, w, h, &pixels).unwrap();
+            std::fs::read(&path).unwrap()
+        })
+        .collect();
+    for (k, f) in files.iter().enumerate().skip(1) {
+        assert!(f == &files[0], "write {k} differs from write 0");
+    }
+    let back = read_image(&dir.join("same-0.exr")).unwrap();
+    assert_eq!((back.width, back.height), (w, h));
+    assert!(back.pixels.iter().zip(&pixels).all(|(a, b)| a == b));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `error` and `compare` refuse an image with a NaN, Inf or negative
 /// pixel (relMSE would be NaN): exit 2, one error line naming the file
 /// and the first bad pixel; compare before it renders anything.

@@ -63,6 +63,13 @@ pub fn read_rgb(path: &Path) -> Result<RgbImage, String> {
 
 /// Writes a float RGB EXR atomically: to a temporary file in the same folder,
 /// then renamed, so an interrupted run never leaves a truncated image.
+///
+/// The blocks are compressed on one thread, so they are written in line
+/// order and the same pixels always make the same file. Compressed on
+/// several threads (the crate's default), they were written in the order
+/// the threads finished them: two renders with identical pixels gave files
+/// that differed in their offset tables and block order, so a checksum
+/// could not tell whether a render had been reproduced.
 pub fn write_rgb(
     path: &Path,
     width: usize,
@@ -72,10 +79,14 @@ pub fn write_rgb(
     use exr::prelude::*;
     assert_eq!(pixels.len(), width * height);
     let tmp = crate::film::temp_path_for(path);
-    let res = write_rgb_file(&tmp, width, height, |x, y| {
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = pixels[y * width + x];
         (p.x, p.y, p.z)
     });
+    let res = Image::from_channels((width, height), channels)
+        .write()
+        .non_parallel()
+        .to_file(&tmp);
     match res {
         Ok(()) => crate::film::commit_temp(&tmp, path),
         Err(e) => {
