@@ -187,10 +187,11 @@ pub fn passes_within_record_budget(
 /// One Adam sample: (pass, [F/p, p_bsdf, p_guide, α used]).
 type AdamSample = (u64, [f32; 4]);
 
-/// An accepted record's leaves: where its jittered splat lands, and the
-/// leaf whose BSDF fraction it steps ([`NO_ADAM`] when it was not guided).
+/// A record's leaves: where its jittered splat lands ([`NO_LEAF`] when the
+/// guards refused it), and the leaf whose BSDF fraction it steps
+/// ([`NO_LEAF`] when it was not guided).
 type RecordLeaves = (u32, u32);
-const NO_ADAM: u32 = u32::MAX;
+const NO_LEAF: u32 = u32::MAX;
 
 /// The memory [`record_pass_reusing`] keeps from one training call to the
 /// next. Each run of buffers sorts its records' splats and Adam samples by
@@ -238,10 +239,14 @@ impl RunWork {
         self.adam_start.resize(n_leaves + 1, 0);
         let records = || buffers.iter().flat_map(|b| b.records.iter());
         for r in records() {
-            match validate(r) {
-                Err(RecordReject::NonFinite) => self.stats.rejected_non_finite += 1,
-                Err(RecordReject::ZeroPdf) => self.stats.rejected_zero_pdf += 1,
-                Err(RecordReject::Negative) => self.stats.rejected_negative += 1,
+            let rejected = |count: &mut u64| {
+                *count += 1;
+                (NO_LEAF, NO_LEAF)
+            };
+            let leaves = match validate(r) {
+                Err(RecordReject::NonFinite) => rejected(&mut self.stats.rejected_non_finite),
+                Err(RecordReject::ZeroPdf) => rejected(&mut self.stats.rejected_zero_pdf),
+                Err(RecordReject::Negative) => rejected(&mut self.stats.rejected_negative),
                 Ok(()) => {
                     self.stats.accepted += 1;
                     let own = tree.lookup(r.position);
@@ -254,11 +259,12 @@ impl RunWork {
                         self.adam_start[own as usize + 1] += 1;
                         own
                     } else {
-                        NO_ADAM
+                        NO_LEAF
                     };
-                    self.leaves.push((target, adam_leaf));
+                    (target, adam_leaf)
                 }
-            }
+            };
+            self.leaves.push(leaves);
         }
         for i in 0..n_leaves {
             self.splat_start[i + 1] += self.splat_start[i];
@@ -272,12 +278,14 @@ impl RunWork {
         self.adam.resize(self.adam_start[n_leaves], (0, [0.0; 4]));
         let mut next_splat = self.splat_start.clone();
         let mut next_adam = self.adam_start.clone();
-        let accepted = records().filter(|r| validate(r).is_ok());
-        for (r, &(target, adam_leaf)) in accepted.zip(&self.leaves) {
+        for (r, &(target, adam_leaf)) in records().zip(&self.leaves) {
+            if target == NO_LEAF {
+                continue;
+            }
             let slot = &mut next_splat[target as usize];
             self.splats[*slot] = (dir_to_square(r.direction.normalize()), r.radiance);
             *slot += 1;
-            if adam_leaf != NO_ADAM {
+            if adam_leaf != NO_LEAF {
                 let slot = &mut next_adam[adam_leaf as usize];
                 self.adam[*slot] = (r.pass, [r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]);
                 *slot += 1;
