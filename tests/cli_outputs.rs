@@ -365,18 +365,15 @@ fn the_same_pixels_make_the_same_exr_file() {
     use ltcguide::film::exr_io::{read_image, write_rgb};
     let dir = work_dir("exr-bytes");
     let (w, h) = (320, 640);
-    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut rng = ltcguide::sampling::Rng::new(7, 0);
     let pixels: Vec<glam::Vec3> = (0..w * h)
         .map(|i| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
             // Smooth rows compress well, noisy ones do not: blocks of
             // different sizes take different times.
             let noise = if (i / w / 16) % 2 == 0 {
                 0.0
             } else {
-                (state >> 40) as f32 / 1.6e7
+                rng.next_f32()
             };
             glam::Vec3::new(0.25 + noise, (i % w) as f32 / w as f32, 0.5)
         })

@@ -206,7 +206,9 @@ pub struct RecordScratch {
 
 /// One run's splats and Adam samples, grouped by leaf in record order:
 /// leaf i's are `splats[splat_start[i]..splat_start[i + 1]]`, and likewise
-/// for Adam.
+/// for Adam. The Adam inputs are copied rather than indexed: the leaves
+/// visit the records in scattered order, and fetching whole records by
+/// index cost more than the Adam steps themselves.
 #[derive(Default)]
 struct RunWork {
     leaves: Vec<RecordLeaves>,
