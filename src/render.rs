@@ -450,7 +450,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         guards,
         plan: Some({
             let mut line = plan.line();
-            for note in guiding.iter().flat_map(|g| [&g.weights_check, &g.fallback]) {
+            for note in guiding
+                .iter()
+                .flat_map(|g| [&g.weights_check, &g.fallback, &g.fallback_declined])
+            {
                 if !note.is_empty() {
                     line = format!("{line} | {note}");
                 }

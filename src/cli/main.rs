@@ -469,7 +469,7 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     write_png(&png, &result.image)?;
     let s = &result.stats;
     if let Some(g) = s.guiding.as_ref() {
-        for note in [&g.weights_check, &g.fallback] {
+        for note in [&g.weights_check, &g.fallback, &g.fallback_declined] {
             if !note.is_empty() {
                 eprintln!("{note}");
             }

@@ -105,13 +105,6 @@ pub(super) fn iteration_variance(film: &Film, mu: &[DVec3]) -> (f64, Vec<f64>) {
     (mean, sample_var)
 }
 
-/// Efficiency 1 / (variance per sample × seconds per sample) of `film`
-/// rendered in `seconds`, its variance measured about `mu`. The spp cancel:
-/// it is 1 / (variance of the film's mean × seconds).
-pub(super) fn efficiency(film: &Film, seconds: f64, mu: &[DVec3]) -> f64 {
-    1.0 / (iteration_variance(film, mu).0 * seconds)
-}
-
 /// Checkerboard colour of pixel `i` of an image `width` wide.
 fn colour(i: usize, width: usize) -> usize {
     (i % width.max(1) + i / width.max(1)) & 1

@@ -16,7 +16,7 @@ use super::schedule::{
     Budget as ScheduleBudget, IterationReport, Schedule, Step, TrainingEnd, TrainingStop,
 };
 use super::sdtree::{SdTree, SdTreeConfig};
-use super::trial::{Strategy, StrategyTrial, TRIAL_PASSES};
+use super::trial::{Rest, RunSoFar, Strategy, StrategyTrial, TRIAL_PASSES};
 use crate::film::image::{Film, Image};
 use crate::integrator::guide::NoGuide;
 use crate::integrator::path::{PathSettings, RouletteMode};
@@ -79,6 +79,10 @@ pub struct GuidingStats {
     pub fallback: String,
     /// Guided passes rendered before a fallback and left out of the image.
     pub left_out_spp: u32,
+    /// Non-empty when path tracing measured more efficient than guiding but
+    /// the guided work a fallback would discard outweighed its gain
+    /// (`super::trial::GUIDING_KEPT`).
+    pub fallback_declined: String,
     /// The measured comparison of the model's child weights with its
     /// cheaper alternative (product vs radiance weights), when one ran, or
     /// the report of a strategy trial the budget cut short.
@@ -167,6 +171,7 @@ pub fn render_guided<M: WeightModel>(
     // decides otherwise.
     let mut chosen = Strategy::Model;
     let mut weights_check = String::new();
+    let mut fallback_declined = String::new();
     // With the plan, one trial measures the strategies against each other
     // (`super::trial`).
     let mut trial: Option<StrategyTrial> = None;
@@ -320,13 +325,23 @@ pub fn render_guided<M: WeightModel>(
             }
             if let Some(t) = trial.as_mut() {
                 t.record(&call_film, render_seconds);
-                if let Some(d) = t.decision(&films, model.name(), cheaper_name) {
+                let now = clock.seconds();
+                let run = RunSoFar {
+                    films: &films,
+                    seconds: now,
+                    rest: match opts.budget {
+                        Budget::Seconds(total) => Rest::Seconds((total - now).max(0.0)),
+                        Budget::Spp(total) => Rest::Passes((total as u64).saturating_sub(pass + n)),
+                    },
+                };
+                if let Some(d) = t.decision(&run, model.name(), cheaper_name) {
                     if d.strategy == Strategy::Unguided {
                         fallback_image = Some(FallbackImage::new(t.unguided_film(), films.len()));
                     }
                     chosen = d.strategy;
                     weights_check = d.weights_note;
                     fallback = d.fallback_note;
+                    fallback_declined = d.declined_note;
                     strategy_decided = true;
                     trial = None;
                 }
@@ -435,6 +450,7 @@ pub fn render_guided<M: WeightModel>(
         training_ended_by,
         fallback,
         left_out_spp,
+        fallback_declined,
         weights_check,
     };
     // The same (n − 1)/n correction as the last iteration's mean_variance.

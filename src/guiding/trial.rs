@@ -21,14 +21,25 @@
 //! Where path tracing leads every guided side by [`EARLY_FALLBACK_LEAD`]
 //! after one call each, the trial ends there.
 //!
+//! A more efficient path tracer is not enough to fall back: a fallback
+//! also discards the guided passes already rendered, and the budget left
+//! may be too short to recover them. On living-room at 45 CPU s, runs that
+//! fell back when path tracing led by 1.06–1.20× after 60 % of their budget
+//! imaged a third of path tracing's samples, at 2.7–3.05× its relMSE
+//! (docs/results-reading.md, session 47). The trial therefore projects the
+//! whole run's final efficiency (precision of the image / total seconds)
+//! both ways ([`Projection`]) and falls back only when path tracing leads
+//! and the fallback's projection is the higher.
+//!
 //! Efficiency is 1 / (variance of the film's mean × render seconds); the
 //! variance is measured about the pooled mean of every film so far, which
 //! stays meaningful at a few spp. The guided sides of a training iteration
 //! pay the path loop's recording, not the tree's update (as in the final
 //! iteration they will render), so the comparison leans towards guiding.
 
-use super::combine::{efficiency, pooled_mean};
+use super::combine::{iteration_variance, pooled_mean};
 use crate::film::image::Film;
+use glam::DVec3;
 
 /// What renders a trial call (and, once decided, the rest of the run).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,6 +80,89 @@ pub const FALLBACK_IMAGE: &str = "the image holds path tracing's passes alone";
 /// these words).
 pub const CHEAPER_WEIGHTS: &str = "weights do not pay here: the rest of the run uses the cheaper";
 
+/// How a plan line says that path tracing led the trial but a fallback
+/// would have discarded more guided work than the rest of the run recovers.
+pub const GUIDING_KEPT: &str = "a fallback would discard more guided work than it saves";
+
+/// What is left of the run's budget when the trial decides.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Rest {
+    /// Seconds on the run's clock.
+    Seconds(f64),
+    /// Passes of a sample budget.
+    Passes(u64),
+}
+
+/// The run around the trial, for the value of what a fallback discards.
+#[derive(Clone, Copy, Debug)]
+pub struct RunSoFar<'a> {
+    /// The finished iterations' films.
+    pub films: &'a [Film],
+    /// Seconds the run has spent, the trial's calls included.
+    pub seconds: f64,
+    /// What is left after the trial's last call.
+    pub rest: Rest,
+}
+
+/// One side's measured cost and noise.
+#[derive(Clone, Copy, Debug)]
+struct Measured {
+    /// Variance of one pass's estimate, mean over pixels.
+    per_sample_variance: f64,
+    seconds_per_pass: f64,
+}
+
+impl Measured {
+    /// 1 / (variance per sample × seconds per sample), 0 where not
+    /// measurable.
+    fn efficiency(&self) -> f64 {
+        let e = 1.0 / (self.per_sample_variance * self.seconds_per_pass);
+        if e.is_finite() { e } else { 0.0 }
+    }
+
+    /// Precision (inverse variance of the mean) and seconds of rendering
+    /// `rest` with this side.
+    fn render(&self, rest: Rest) -> (f64, f64) {
+        match rest {
+            Rest::Seconds(t) => (t / (self.per_sample_variance * self.seconds_per_pass), t),
+            Rest::Passes(n) => (
+                n as f64 / self.per_sample_variance,
+                n as f64 * self.seconds_per_pass,
+            ),
+        }
+    }
+}
+
+/// The run's projected final efficiency, image precision over total
+/// seconds, when it keeps guiding and when it falls back.
+///
+/// The precision of a film is its spp over its per-sample variance, and the
+/// inverse-variance combination (`super::combine`) sums the iterations'.
+/// Two floors keep the guided work from being overrated:
+/// - a finished iteration is worth no more per sample than the guide the
+///   trial measured, as the combination floors every iteration's
+///   per-sample variance at the most-sampled film's (an earlier guide is no
+///   better, and a few-spp film misses its rare fireflies);
+/// - the trial's passes join one film as a plain mean, so a kept trial
+///   iteration is worth N² / Σ nₛ·vₛ, path tracing's noisier passes included.
+///
+/// A fallback images the trial's path-tracing passes and its rest alone.
+/// With a time budget both take the same seconds and only precision
+/// differs; with a sample budget the rest's seconds differ too.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    pub keep: f64,
+    pub fallback: f64,
+}
+
+impl Projection {
+    /// Whether the projection forbids a fallback that efficiency alone
+    /// would take. Unmeasurable projections forbid nothing.
+    fn keeps_guiding(&self) -> bool {
+        self.keep.is_finite() && self.fallback.is_finite() && self.keep >= self.fallback
+    }
+}
+
 struct Side {
     strategy: Strategy,
     film: Film,
@@ -87,6 +181,9 @@ pub struct Decision {
     pub weights_note: String,
     /// Non-empty when path tracing won: why guiding was dropped.
     pub fallback_note: String,
+    /// Non-empty when path tracing was the more efficient but a fallback
+    /// would have ended the run worse ([`GUIDING_KEPT`]).
+    pub declined_note: String,
 }
 
 pub struct StrategyTrial {
@@ -151,17 +248,56 @@ impl StrategyTrial {
         self.sides.iter().all(|s| s.calls >= CALLS_PER_SIDE)
     }
 
-    /// Each side's efficiency, its variance measured about the pooled mean
-    /// of `done` and every side's film (0 when not measurable).
-    fn efficiencies(&self, done: &[Film]) -> impl Fn(Strategy) -> f64 + '_ {
-        let mut all: Vec<&Film> = done.iter().collect();
-        all.extend(self.sides.iter().map(|s| &s.film));
-        let mu = pooled_mean(&all);
-        move |strategy| {
-            let s = self.side_of(strategy).expect("every trial has this side");
-            let e = efficiency(&s.film, s.seconds, &mu);
-            if e.is_finite() { e } else { 0.0 }
+    /// A side's measured noise and cost, its variance measured about the
+    /// pooled mean `mu`.
+    fn measured(&self, strategy: Strategy, mu: &[DVec3]) -> Measured {
+        let s = self.side_of(strategy).expect("every trial has this side");
+        let spp = s.film.spp.max(1) as f64;
+        Measured {
+            per_sample_variance: iteration_variance(&s.film, mu).0 * spp,
+            seconds_per_pass: s.seconds / spp,
         }
+    }
+
+    /// The run's final efficiency kept and fallen back ([`Projection`]),
+    /// when `best` renders the rest if guiding is kept.
+    fn projection(&self, run: &RunSoFar, mu: &[DVec3], best: Strategy) -> Projection {
+        let guided = self.measured(best, mu);
+        let floor = guided.per_sample_variance;
+        // NaN compares false, so it takes the no-worth branch.
+        let floored = |v: f64| {
+            if v >= floor {
+                v
+            } else if v < floor {
+                floor
+            } else {
+                f64::INFINITY
+            }
+        };
+        let finished_work: f64 = run
+            .films
+            .iter()
+            .filter(|f| f.spp > 0)
+            .map(|f| {
+                let spp = f.spp as f64;
+                spp / floored(iteration_variance(f, mu).0 * spp)
+            })
+            .sum();
+        let (mut passes, mut spread) = (0.0, 0.0);
+        for s in &self.sides {
+            let n = s.film.spp as f64;
+            passes += n;
+            spread += n * self.measured(s.strategy, mu).per_sample_variance;
+        }
+        let trial_kept = (passes * passes / spread).min(passes / floor);
+        let (rest_precision, rest_seconds) = guided.render(run.rest);
+        let keep = (finished_work + trial_kept + rest_precision) / (run.seconds + rest_seconds);
+        let unguided = self.measured(Strategy::Unguided, mu);
+        let unguided_spp = self.unguided_film().spp as f64;
+        let (rest_precision, rest_seconds) = unguided.render(run.rest);
+        let fallback = (unguided_spp / unguided.per_sample_variance + rest_precision)
+            / (run.seconds + rest_seconds);
+        Projection { keep, fallback }
     }
 
     /// The unguided side's passes so far: after a fallback, the start of
@@ -177,29 +313,24 @@ impl StrategyTrial {
         self.sides.iter().find(|s| s.strategy == strategy)
     }
 
-    /// The most efficient strategy, with the reports, once the trial can
-    /// tell: after every call, or after the first round when path tracing
-    /// leads every guided side by [`EARLY_FALLBACK_LEAD`]; `None` until
-    /// then. `done` are the films of the finished iterations, `model` and
-    /// `cheaper` the weights' names.
-    pub fn decision(&self, done: &[Film], model: &str, cheaper: Option<&str>) -> Option<Decision> {
+    /// The strategy for the rest of the run, with the reports, once the
+    /// trial can tell: after every call, or after the first round when path
+    /// tracing leads every guided side by [`EARLY_FALLBACK_LEAD`] and the
+    /// fallback's [`Projection`] is the higher; `None` until then. `model`
+    /// and `cheaper` are the weights' names.
+    ///
+    /// The better guided side is the most efficient one. Path tracing
+    /// replaces it when it is more efficient still and the run's projected
+    /// final efficiency is higher with a fallback than without.
+    pub fn decision(&self, run: &RunSoFar, model: &str, cheaper: Option<&str>) -> Option<Decision> {
         let finished = self.finished();
         if !finished && self.next != self.sides.len() {
             return None;
         }
-        let eff = self.efficiencies(done);
-        if !finished {
-            let unguided = eff(Strategy::Unguided);
-            let best_guided = [Strategy::Model, Strategy::Cheaper]
-                .into_iter()
-                .filter(|&s| self.side_of(s).is_some())
-                .map(&eff)
-                .fold(0.0, f64::max);
-            // Unmeasurable (0) everywhere is no lead.
-            if !(unguided > 0.0 && unguided >= EARLY_FALLBACK_LEAD * best_guided) {
-                return None;
-            }
-        }
+        let mut films: Vec<&Film> = run.films.iter().collect();
+        films.extend(self.sides.iter().map(|s| &s.film));
+        let mu = pooled_mean(&films);
+        let eff = |strategy| self.measured(strategy, &mu).efficiency();
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
         let mut guided = (Strategy::Model, eff(Strategy::Model), model);
@@ -221,10 +352,29 @@ impl StrategyTrial {
                 guided = (Strategy::Cheaper, ec, name);
             }
         }
-        let unguided = side(Strategy::Unguided);
         let eu = eff(Strategy::Unguided);
-        let pt_wins = eu > guided.1;
-        let fallback_note = if pt_wins {
+        let projection = self.projection(run, &mu, guided.0);
+        let falls_back = eu > guided.1 && !projection.keeps_guiding();
+        if !finished {
+            // Unmeasurable (0) everywhere is no lead.
+            let decisive = eu > 0.0 && eu >= EARLY_FALLBACK_LEAD * guided.1;
+            if !(decisive && falls_back) {
+                return None;
+            }
+        }
+        let unguided_spp = self.unguided_film().spp;
+        let guided_spp = side(guided.0).film.spp;
+        let measured = format!(
+            "path tracing with NEE measured efficiency {eu:.3e} on {unguided_spp} spp, guiding with {} weights {:.3e} on {guided_spp} spp",
+            guided.2, guided.1,
+        );
+        let projected = format!(
+            "the run's projected final efficiency is {:.3e} with a fallback, {:.3e} guided",
+            projection.fallback, projection.keep,
+        );
+        let mut fallback_note = String::new();
+        let mut declined_note = String::new();
+        if falls_back {
             let early = if finished {
                 String::new()
             } else {
@@ -232,24 +382,31 @@ impl StrategyTrial {
                     ", after the first round: a lead of {EARLY_FALLBACK_LEAD}× or more ends the trial"
                 )
             };
-            format!(
-                "guiding does not pay here (path tracing with NEE measured efficiency {eu:.3e} on {} spp, guiding with {} weights {:.3e} on {} spp{early}): the rest of the budget is rendered by path tracing with NEE, and {FALLBACK_IMAGE}",
-                unguided.film.spp,
-                guided.2,
-                guided.1,
-                side(guided.0).film.spp,
-            )
-        } else {
-            String::new()
-        };
+            fallback_note = format!(
+                "guiding does not pay here ({measured}{early}; {projected}): the rest of the budget is rendered by path tracing with NEE, and {FALLBACK_IMAGE}"
+            );
+        } else if eu > guided.1 {
+            let discarded: u32 = run.films.iter().map(|f| f.spp).sum::<u32>()
+                + self
+                    .sides
+                    .iter()
+                    .filter(|s| s.strategy != Strategy::Unguided)
+                    .map(|s| s.film.spp)
+                    .sum::<u32>();
+            declined_note = format!(
+                "guiding kept although path tracing led by {:.2}× ({measured}): {GUIDING_KEPT} ({discarded} guided spp; {projected})",
+                eu / guided.1,
+            );
+        }
         Some(Decision {
-            strategy: if pt_wins {
+            strategy: if falls_back {
                 Strategy::Unguided
             } else {
                 guided.0
             },
             weights_note,
             fallback_note,
+            declined_note,
         })
     }
 
@@ -298,12 +455,31 @@ mod tests {
         f
     }
 
-    /// Runs a trial whose sides render with (σ, seconds per pass).
+    /// Runs a trial whose sides render with (σ, seconds per pass), with
+    /// nothing rendered before it and a budget that dwarfs it: a decision
+    /// by efficiency alone.
     fn run(has_cheaper: bool, side: impl Fn(Strategy) -> (f32, f64)) -> (StrategyTrial, Decision) {
+        run_after(&[], 0.0, Rest::Seconds(1e9), has_cheaper, side)
+    }
+
+    /// [`run`] after the finished iterations `done`, which took
+    /// `done_seconds`, with `rest` of the budget left after the trial.
+    fn run_after(
+        done: &[Film],
+        done_seconds: f64,
+        rest: Rest,
+        has_cheaper: bool,
+        side: impl Fn(Strategy) -> (f32, f64),
+    ) -> (StrategyTrial, Decision) {
         let mut t = StrategyTrial::new(64, 64, has_cheaper);
         let mut seed = 1;
         loop {
-            if let Some(d) = t.decision(&[], "product", has_cheaper.then_some("radiance")) {
+            let run = RunSoFar {
+                films: done,
+                seconds: done_seconds + t.sides.iter().map(|s| s.seconds).sum::<f64>(),
+                rest,
+            };
+            if let Some(d) = t.decision(&run, "product", has_cheaper.then_some("radiance")) {
                 return (t, d);
             }
             let (strategy, passes) = t.next_call();
@@ -311,6 +487,16 @@ mod tests {
             t.record(&film(passes, sigma, seed), seconds * passes as f64);
             seed += 1;
         }
+    }
+
+    /// Training iterations of 1, 2 and 4 passes with per-sample standard
+    /// deviation `sigma`.
+    fn training(sigma: f32) -> Vec<Film> {
+        [1, 2, 4]
+            .into_iter()
+            .enumerate()
+            .map(|(k, spp)| film(spp, sigma, 1000 + k as u64))
+            .collect()
     }
 
     #[test]
@@ -396,5 +582,106 @@ mod tests {
         assert!(t.finished() && t.sides.iter().all(|s| s.calls == CALLS_PER_SIDE));
         assert_eq!(d.strategy, Strategy::Unguided);
         assert!(!d.fallback_note.contains("first round"));
+    }
+
+    /// Path tracing 1.15× as efficient as guiding (σ 1 at 1 s per pass
+    /// against σ 1 at 1.15 s). After 7 guided spp of training and the
+    /// trial's 6, a fallback keeps 2 spp of the 15 it has. A short rest
+    /// cannot recover the 13 it discards, so guiding is kept and the
+    /// report says why; a long one can, so path tracing takes over. The
+    /// same under a sample budget.
+    #[test]
+    fn a_fallback_must_recover_the_guided_work_it_discards() {
+        let done = training(1.0);
+        let sides = |s| match s {
+            Strategy::Unguided => (1.0, 1.0),
+            _ => (1.0, 1.15),
+        };
+        let done_seconds = 7.0 * 1.15;
+        for rest in [Rest::Seconds(10.0), Rest::Passes(10)] {
+            let (t, d) = run_after(&done, done_seconds, rest, false, sides);
+            assert!(t.finished());
+            assert_eq!(d.strategy, Strategy::Model, "{rest:?}: {}", d.fallback_note);
+            assert!(d.fallback_note.is_empty());
+            assert!(
+                d.declined_note
+                    .starts_with("guiding kept although path tracing led by")
+                    && d.declined_note.contains(GUIDING_KEPT)
+                    && d.declined_note.contains("(13 guided spp;"),
+                "{}",
+                d.declined_note
+            );
+        }
+        for rest in [Rest::Seconds(1000.0), Rest::Passes(10_000)] {
+            let (_, d) = run_after(&done, done_seconds, rest, false, sides);
+            assert_eq!(
+                d.strategy,
+                Strategy::Unguided,
+                "{rest:?}: {}",
+                d.declined_note
+            );
+            assert!(d.declined_note.is_empty());
+            assert!(
+                d.fallback_note.contains("projected final efficiency"),
+                "{}",
+                d.fallback_note
+            );
+        }
+        // Guiding more efficient: nothing to decline.
+        let (_, d) = run_after(
+            &done,
+            done_seconds,
+            Rest::Seconds(10.0),
+            false,
+            |s| match s {
+                Strategy::Unguided => (1.0, 1.15),
+                _ => (1.0, 1.0),
+            },
+        );
+        assert_eq!(d.strategy, Strategy::Model);
+        assert!(d.declined_note.is_empty() && d.fallback_note.is_empty());
+    }
+
+    /// Training films that measure 100× quieter than the trial's guide are
+    /// worth no more per sample than it (the combination's floor): with a
+    /// long rest the run still falls back. Unfloored, their 7 spp would
+    /// count as 70 000 and keep guiding.
+    #[test]
+    fn quiet_early_iterations_are_worth_no_more_than_the_trial_guide() {
+        let (_, d) = run_after(
+            &training(0.01),
+            8.0,
+            Rest::Seconds(1000.0),
+            false,
+            |s| match s {
+                Strategy::Unguided => (1.0, 1.0),
+                _ => (1.0, 1.15),
+            },
+        );
+        assert_eq!(d.strategy, Strategy::Unguided, "{}", d.declined_note);
+    }
+
+    /// A 10× lead after the first round ends the trial only when the
+    /// fallback also pays for what it discards: with 70 s of guided work
+    /// behind it and 5 s left, the trial runs to its end and keeps guiding.
+    #[test]
+    fn a_decisive_lead_waits_when_the_rest_is_too_short() {
+        let (t, d) = run_after(
+            &training(1.0),
+            70.0,
+            Rest::Seconds(5.0),
+            false,
+            |s| match s {
+                Strategy::Unguided => (1.0, 1.0),
+                _ => (1.0, 10.0),
+            },
+        );
+        assert!(t.finished());
+        assert_eq!(d.strategy, Strategy::Model);
+        assert!(
+            d.declined_note.contains(GUIDING_KEPT),
+            "{}",
+            d.declined_note
+        );
     }
 }
