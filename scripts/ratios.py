@@ -35,15 +35,17 @@ def finals(path):
     return out
 
 
-# The plan-line phrases of src/guiding/trial.rs (FALLBACK_IMAGE and the
-# product's switch to radiance weights).
+# The plan-line phrases of src/guiding/trial.rs (FALLBACK_IMAGE, the
+# product's switch to radiance weights, and GUIDING_KEPT).
 PT_IMAGE = "the image holds path tracing's passes alone"
 RADIANCE_WEIGHTS = "product weights do not pay here"
+FALLBACK_DECLINED = "a fallback would discard more guided work than it saves"
 
 
 def plan_outcomes(scene_dir):
     """Per method: (runs, runs imaged by path tracing alone, product runs that
-    switched to radiance weights), from the plan lines of summary.md."""
+    switched to radiance weights, runs that kept guiding although path
+    tracing led their trial), from the plan lines of summary.md."""
     out = {}
     path = os.path.join(scene_dir, "summary.md")
     if not os.path.exists(path):
@@ -52,15 +54,23 @@ def plan_outcomes(scene_dir):
         m = re.match(r"- (?:`[^`]*`: )?(\w+), seed \d+: plan: ", line)
         if not m:
             continue
-        runs, pt, radiance = out.get(m.group(1), (0, 0, 0))
-        out[m.group(1)] = (runs + 1, pt + (PT_IMAGE in line), radiance + (RADIANCE_WEIGHTS in line))
+        runs, pt, radiance, declined = out.get(m.group(1), (0, 0, 0, 0))
+        out[m.group(1)] = (
+            runs + 1,
+            pt + (PT_IMAGE in line),
+            radiance + (RADIANCE_WEIGHTS in line),
+            declined + (FALLBACK_DECLINED in line),
+        )
     return out
 
 
 def imaged(outcomes, method):
-    """'k/n' runs of the method imaged by path tracing alone ('—' without plan lines)."""
-    runs, pt, _ = outcomes.get(method, (0, 0, 0))
-    return f"{pt}/{runs}" if runs else "—"
+    """'k/n' runs of the method imaged by path tracing alone, with the runs
+    that declined a fallback ('—' without plan lines)."""
+    runs, pt, _, declined = outcomes.get(method, (0, 0, 0, 0))
+    if not runs:
+        return "—"
+    return f"{pt}/{runs}" + (f" ({declined} declined)" if declined else "")
 
 
 FALLBACK_NOTE = (
@@ -68,7 +78,9 @@ FALLBACK_NOTE = (
     "of the budget to path tracing with NEE, so that their image holds path tracing's passes alone "
     "(their plan lines say so). Where every run of both methods did, the ratio compares path "
     "tracing with path tracing and measures what the trials cost, not guiding; `docs/results-240s.md` "
-    "runs every method as such throughout."
+    "runs every method as such throughout. *declined*: runs whose trial measured path tracing the "
+    "more efficient but kept guiding, because a fallback would discard more guided work than the rest "
+    "of the budget recovers."
 )
 
 
@@ -109,7 +121,7 @@ def product_vs_radiance(root):
         n = min(len(f["product"]), len(f["radiance"]))
         vs_pt = cell(col("product", 0), col("pt", 0)) if "pt" in f else "— | —"
         plans = plan_outcomes(os.path.join(root, s))
-        any_fallback |= any(plans.get(m, (0, 0, 0))[1] for m in ("radiance", "product"))
+        any_fallback |= any(sum(plans.get(m, (0, 0, 0, 0))[1::2]) for m in ("radiance", "product"))
         print(
             f"| {s} | {n} | {imaged(plans, 'radiance')}; {imaged(plans, 'product')} | "
             f"{cell(col('product', 0), col('radiance', 0))} | "
@@ -137,7 +149,7 @@ def roulette_vs_classic(classic_root, adrrs_root):
                 col = lambda f, i: [v[i] for v in f[m]]
                 n = min(len(fa[m]), len(fc[m]))
                 fallbacks = f"{imaged(pc, m)}; {imaged(pa, m)}" if m != "pt" else "—"
-                any_fallback |= m != "pt" and (pa.get(m, (0, 0, 0))[1] + pc.get(m, (0, 0, 0))[1]) > 0
+                any_fallback |= m != "pt" and sum(pa.get(m, (0, 0, 0, 0))[1::2]) + sum(pc.get(m, (0, 0, 0, 0))[1::2]) > 0
                 print(
                     f"| {s} | {label} | {n} | {fallbacks} | {cell(col(fa, 0), col(fc, 0))} | "
                     f"{cell(col(fa, 1), col(fc, 1))} |"

@@ -928,3 +928,26 @@ fn attribution_refuses_options_it_cannot_run() {
         assert!(check(&opts).is_err(), "{opts:?}");
     }
 }
+
+/// `scripts/ratios.py` counts the runs' trial outcomes by the phrases of the
+/// trial's plan notes: a reworded note would silently count as no outcome.
+#[test]
+fn the_ratio_script_looks_for_the_trials_phrases() {
+    use ltcguide::guiding::trial::{CHEAPER_WEIGHTS, FALLBACK_IMAGE, GUIDING_KEPT};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/ratios.py");
+    let script = std::fs::read_to_string(path).unwrap();
+    let phrase = |name: &str| -> String {
+        let line = script
+            .lines()
+            .find(|l| l.starts_with(&format!("{name} = \"")))
+            .unwrap_or_else(|| panic!("{path} defines no {name}"));
+        line[name.len() + 4..line.len() - 1].to_string()
+    };
+    assert_eq!(phrase("PT_IMAGE"), FALLBACK_IMAGE);
+    assert_eq!(phrase("FALLBACK_DECLINED"), GUIDING_KEPT);
+    let radiance = phrase("RADIANCE_WEIGHTS");
+    assert!(
+        format!("product {CHEAPER_WEIGHTS}").starts_with(&radiance),
+        "{radiance}"
+    );
+}
