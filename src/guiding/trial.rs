@@ -31,13 +31,22 @@
 //! both ways ([`Projection`]) and falls back only when path tracing leads
 //! and the fallback's projection is the higher.
 //!
-//! Efficiency is 1 / (variance of the film's mean × render seconds); the
-//! variance is measured about the pooled mean of every film so far, which
-//! stays meaningful at a few spp. The guided sides of a training iteration
+//! Efficiency is 1 / (variance of the film's mean × render seconds), the
+//! variance relative as relMSE measures it (each channel's over μ² + ε,
+//! `super::combine::relative_sample_variance`): a run is judged by relMSE,
+//! and absolute variance, dominated by bright pixels, misjudged veach-ajar,
+//! where guiding lowers the bright pixels' noise more than the dark ones'.
+//! There, at 45 CPU s with classic roulette, a product run's final
+//! iteration measured 1.5× less absolute variance per sample than path
+//! tracing's, its images only 1.1–1.25× less relMSE per sample, at 1.7× the
+//! cost; one trial measured path tracing ahead by 1.03× in absolute
+//! variance and 2.08× in relative (docs/results-reading.md, session
+//! 48). The variance is measured about the pooled mean of every film so
+//! far, which stays meaningful at a few spp. The guided sides of a training iteration
 //! pay the path loop's recording, not the tree's update (as in the final
 //! iteration they will render), so the comparison leans towards guiding.
 
-use super::combine::{iteration_variance, pooled_mean};
+use super::combine::{pooled_mean, relative_normaliser, relative_sample_variance};
 use crate::film::image::Film;
 use glam::DVec3;
 
@@ -163,6 +172,12 @@ impl Projection {
     }
 }
 
+/// The pooled mean of every film so far, and relMSE's normaliser from it.
+struct Mean {
+    pooled: Vec<DVec3>,
+    norm: Vec<DVec3>,
+}
+
 struct Side {
     strategy: Strategy,
     film: Film,
@@ -250,18 +265,18 @@ impl StrategyTrial {
 
     /// A side's measured noise and cost, its variance measured about the
     /// pooled mean `mu`.
-    fn measured(&self, strategy: Strategy, mu: &[DVec3]) -> Measured {
+    fn measured(&self, strategy: Strategy, mu: &Mean) -> Measured {
         let s = self.side_of(strategy).expect("every trial has this side");
         let spp = s.film.spp.max(1) as f64;
         Measured {
-            per_sample_variance: iteration_variance(&s.film, mu).0 * spp,
+            per_sample_variance: relative_sample_variance(&s.film, &mu.pooled, &mu.norm),
             seconds_per_pass: s.seconds / spp,
         }
     }
 
     /// The run's final efficiency kept and fallen back ([`Projection`]),
     /// when `best` renders the rest if guiding is kept.
-    fn projection(&self, run: &RunSoFar, mu: &[DVec3], best: Strategy) -> Projection {
+    fn projection(&self, run: &RunSoFar, mu: &Mean, best: Strategy) -> Projection {
         let guided = self.measured(best, mu);
         let floor = guided.per_sample_variance;
         // NaN compares false, so it takes the no-worth branch.
@@ -278,10 +293,7 @@ impl StrategyTrial {
             .films
             .iter()
             .filter(|f| f.spp > 0)
-            .map(|f| {
-                let spp = f.spp as f64;
-                spp / floored(iteration_variance(f, mu).0 * spp)
-            })
+            .map(|f| f.spp as f64 / floored(relative_sample_variance(f, &mu.pooled, &mu.norm)))
             .sum();
         let (mut passes, mut spread) = (0.0, 0.0);
         for s in &self.sides {
@@ -329,7 +341,11 @@ impl StrategyTrial {
         }
         let mut films: Vec<&Film> = run.films.iter().collect();
         films.extend(self.sides.iter().map(|s| &s.film));
-        let mu = pooled_mean(&films);
+        let pooled = pooled_mean(&films);
+        let mu = Mean {
+            norm: relative_normaliser(&pooled, self.sides[0].film.width),
+            pooled,
+        };
         let eff = |strategy| self.measured(strategy, &mu).efficiency();
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
@@ -440,14 +456,21 @@ mod tests {
     /// A film of `spp` passes of mean 1 with per-sample standard deviation
     /// `sigma`.
     fn film(spp: u32, sigma: f32, seed: u64) -> Film {
+        film_of(spp, seed, |_| (1.0, sigma))
+    }
+
+    /// A film of `spp` passes whose pixel i has mean and per-sample
+    /// standard deviation `pixel(i)`.
+    fn film_of(spp: u32, seed: u64, pixel: impl Fn(usize) -> (f32, f32)) -> Film {
         let (w, h) = (64, 64);
         let mut f = Film::new(w, h);
         let mut rng = Rng::new(seed, 0);
         for _ in 0..spp {
             let pass: Vec<Spectrum> = (0..w * h)
-                .map(|_| {
+                .map(|i| {
                     let s = if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
-                    Spectrum::splat(1.0 + s * sigma)
+                    let (mean, sigma) = pixel(i);
+                    Spectrum::splat(mean + s * sigma)
                 })
                 .collect();
             f.add_pass(&pass);
@@ -682,6 +705,48 @@ mod tests {
             d.declined_note.contains(GUIDING_KEPT),
             "{}",
             d.declined_note
+        );
+    }
+
+    /// An image half bright (10) and half dark (0.1). Guiding has a ninth
+    /// of path tracing's absolute variance, all won in the bright half, and
+    /// 11× its variance in the dark half: relative to the pixels' values,
+    /// as relMSE weighs them, it is 3.8× noisier. At equal cost path
+    /// tracing wins the trial.
+    #[test]
+    fn the_trial_weighs_noise_as_relmse_does() {
+        let bright = |i: usize| i % 2 == 0;
+        let mut t = StrategyTrial::new(64, 64, false);
+        let mut seed = 1;
+        let decision = loop {
+            let run = RunSoFar {
+                films: &[],
+                seconds: 1.0,
+                rest: Rest::Seconds(1e9),
+            };
+            if let Some(d) = t.decision(&run, "product", None) {
+                break d;
+            }
+            let (strategy, passes) = t.next_call();
+            let (bright_sigma, dark_sigma) = match strategy {
+                Strategy::Unguided => (3.0, 0.03),
+                _ => (1.0, 0.1),
+            };
+            let f = film_of(passes, seed, |i| {
+                if bright(i) {
+                    (10.0, bright_sigma)
+                } else {
+                    (0.1, dark_sigma)
+                }
+            });
+            t.record(&f, passes as f64);
+            seed += 1;
+        };
+        assert_eq!(
+            decision.strategy,
+            Strategy::Unguided,
+            "{}",
+            decision.declined_note
         );
     }
 }
