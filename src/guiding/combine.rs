@@ -55,80 +55,21 @@ pub(super) fn pooled_mean(films: &[&Film]) -> Vec<DVec3> {
 /// keeps it meaningful for 1- and 2-spp iterations, whose own sample
 /// variance is zero or nearly so in most pixels of a hard scene.
 fn sample_variance_about(film: &Film, mu: &[DVec3]) -> Vec<f64> {
-    spread_about(film, mu, |_, _| 1.0)
-}
-
-/// [`sample_variance_about`] with the term of pixel i's channel c scaled by
-/// `scale(i, c)`.
-fn spread_about(film: &Film, mu: &[DVec3], scale: impl Fn(usize, usize) -> f64) -> Vec<f64> {
     let n = film.spp.max(1) as f64;
     film.sum
         .iter()
         .zip(&film.sum_sq)
         .zip(mu)
-        .enumerate()
-        .map(|(i, ((s, q), m))| {
+        .map(|((s, q), m)| {
             let mut v = 0.0f64;
             for c in 0..3 {
                 let d = (q[c] - 2.0 * m[c] * s[c]) / n + m[c] * m[c];
                 // Not `max`: it would turn a NaN into a silent 0.
-                v += if d < 0.0 { 0.0 } else { d * scale(i, c) };
+                v += if d < 0.0 { 0.0 } else { d };
             }
             v / 3.0
         })
         .collect()
-}
-
-/// relMSE's normaliser R² + ε (`crate::film::metrics`) for every pixel and
-/// channel, without a reference: R is the median of the pooled means `mu`
-/// of the pixel's neighbours (3×3, the pixel left out; fewer at the
-/// border). A pixel's own mean would normalise its own fireflies: one
-/// sample F among N puts μ near F/N, which caps the firefly's relative
-/// variance near N however large F is, and so rated guiding without NEE
-/// above path tracing with NEE on `scenes/glossy-gap`, where the reference
-/// says the opposite. The median also ignores a firefly next door.
-pub(super) fn relative_normaliser(mu: &[DVec3], width: usize) -> Vec<DVec3> {
-    let eps = crate::film::metrics::RELMSE_EPSILON;
-    let width = width.max(1);
-    let height = mu.len() / width;
-    let mut around = Vec::with_capacity(8);
-    (0..mu.len())
-        .map(|i| {
-            let (x, y) = ((i % width) as isize, (i / width) as isize);
-            let mut out = DVec3::ZERO;
-            for c in 0..3 {
-                around.clear();
-                for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
-                    let (nx, ny) = (x + dx, y + dy);
-                    let inside =
-                        nx >= 0 && ny >= 0 && (nx as usize) < width && (ny as usize) < height;
-                    if (dx, dy) != (0, 0) && inside {
-                        around.push(mu[ny as usize * width + nx as usize][c]);
-                    }
-                }
-                // A one-pixel image has no neighbours: its own mean.
-                let r = if around.is_empty() {
-                    mu[i][c]
-                } else {
-                    around.sort_by(f64::total_cmp);
-                    let k = around.len();
-                    0.5 * (around[(k - 1) / 2] + around[k / 2])
-                };
-                out[c] = r * r + eps;
-            }
-            out
-        })
-        .collect()
-}
-
-/// Mean over pixels of the single-sample variance of `film` about `mu`,
-/// each channel's relative to its [`relative_normaliser`] `norm`: the noise
-/// that relMSE charges an image for. Absolute variance is dominated by
-/// bright pixels, where guiding gains most; relMSE weighs dark ones as
-/// much. ∞ if any pixel's is not finite.
-pub(super) fn relative_sample_variance(film: &Film, mu: &[DVec3], norm: &[DVec3]) -> f64 {
-    let per_pixel = spread_about(film, mu, |i, c| 1.0 / norm[i][c]);
-    mean_sample_variance(&per_pixel, 0..per_pixel.len())
 }
 
 /// Mean over `pixels` of the per-pixel single-sample variances; ∞ if any

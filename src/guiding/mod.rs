@@ -16,6 +16,7 @@
 //!   hemisphere;
 //! - [`trial`]: the plan's measured choice between the guide's weights and
 //!   path tracing;
+//! - [`projection`]: what a fallback to path tracing would cost the run;
 //! - [`fallback_image`]: what a run that falls back to path tracing images.
 //!
 //! Integration, per render:
@@ -51,6 +52,7 @@ pub mod fallback_image;
 pub mod guide;
 pub mod pixel_reuse;
 pub mod product;
+pub mod projection;
 pub mod quadtree;
 pub mod record;
 pub mod schedule;

@@ -21,34 +21,20 @@
 //! Where path tracing leads every guided side by [`EARLY_FALLBACK_LEAD`]
 //! after one call each, the trial ends there.
 //!
-//! A more efficient path tracer is not enough to fall back: a fallback
-//! also discards the guided passes already rendered, and the budget left
-//! may be too short to recover them. On living-room at 45 CPU s, runs that
-//! fell back when path tracing led by 1.06–1.20× after 60 % of their budget
-//! imaged a third of path tracing's samples, at 2.7–3.05× its relMSE
-//! (docs/results-reading.md, session 47). The trial therefore projects the
-//! whole run's final efficiency (precision of the image / total seconds)
-//! both ways ([`Projection`]) and falls back only when path tracing leads
-//! and the fallback's projection is the higher.
+//! Path tracing replaces guiding only when it is the more efficient and
+//! the run's projected final efficiency is higher with a fallback, which
+//! discards the guided passes already rendered ([`Projection`]).
 //!
 //! Efficiency is 1 / (variance of the film's mean × render seconds), the
-//! variance relative as relMSE measures it (each channel's over μ² + ε,
-//! `super::combine::relative_sample_variance`): a run is judged by relMSE,
-//! and absolute variance, dominated by bright pixels, misjudged veach-ajar,
-//! where guiding lowers the bright pixels' noise more than the dark ones'.
-//! There, at 45 CPU s with classic roulette, a product run's final
-//! iteration measured 1.5× less absolute variance per sample than path
-//! tracing's, its images only 1.1–1.25× less relMSE per sample, at 1.7× the
-//! cost; one trial measured path tracing ahead by 1.03× in absolute
-//! variance and 2.08× in relative (docs/results-reading.md, session
-//! 48). The variance is measured about the pooled mean of every film so
-//! far, which stays meaningful at a few spp. The guided sides of a training iteration
-//! pay the path loop's recording, not the tree's update (as in the final
-//! iteration they will render), so the comparison leans towards guiding.
+//! variance measured about the pooled mean of every film so far, which
+//! stays meaningful at a few spp (`super::projection::Mean`). The guided
+//! sides of a training iteration pay the path loop's recording, not the
+//! tree's update (as in the final iteration they will render), so the
+//! comparison leans towards guiding.
 
-use super::combine::{pooled_mean, relative_normaliser, relative_sample_variance};
+use super::projection::{Mean, Measured, Projection};
+pub use super::projection::{Rest, RunSoFar};
 use crate::film::image::Film;
-use glam::DVec3;
 
 /// What renders a trial call (and, once decided, the rest of the run).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,91 +78,6 @@ pub const CHEAPER_WEIGHTS: &str = "weights do not pay here: the rest of the run 
 /// How a plan line says that path tracing led the trial but a fallback
 /// would have discarded more guided work than the rest of the run recovers.
 pub const GUIDING_KEPT: &str = "a fallback would discard more guided work than it saves";
-
-/// What is left of the run's budget when the trial decides.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Rest {
-    /// Seconds on the run's clock.
-    Seconds(f64),
-    /// Passes of a sample budget.
-    Passes(u64),
-}
-
-/// The run around the trial, for the value of what a fallback discards.
-#[derive(Clone, Copy, Debug)]
-pub struct RunSoFar<'a> {
-    /// The finished iterations' films.
-    pub films: &'a [Film],
-    /// Seconds the run has spent, the trial's calls included.
-    pub seconds: f64,
-    /// What is left after the trial's last call.
-    pub rest: Rest,
-}
-
-/// One side's measured cost and noise.
-#[derive(Clone, Copy, Debug)]
-struct Measured {
-    /// Variance of one pass's estimate, mean over pixels.
-    per_sample_variance: f64,
-    seconds_per_pass: f64,
-}
-
-impl Measured {
-    /// 1 / (variance per sample × seconds per sample), 0 where not
-    /// measurable.
-    fn efficiency(&self) -> f64 {
-        let e = 1.0 / (self.per_sample_variance * self.seconds_per_pass);
-        if e.is_finite() { e } else { 0.0 }
-    }
-
-    /// Precision (inverse variance of the mean) and seconds of rendering
-    /// `rest` with this side.
-    fn render(&self, rest: Rest) -> (f64, f64) {
-        match rest {
-            Rest::Seconds(t) => (t / (self.per_sample_variance * self.seconds_per_pass), t),
-            Rest::Passes(n) => (
-                n as f64 / self.per_sample_variance,
-                n as f64 * self.seconds_per_pass,
-            ),
-        }
-    }
-}
-
-/// The run's projected final efficiency, image precision over total
-/// seconds, when it keeps guiding and when it falls back.
-///
-/// The precision of a film is its spp over its per-sample variance, and the
-/// inverse-variance combination (`super::combine`) sums the iterations'.
-/// Two floors keep the guided work from being overrated:
-/// - a finished iteration is worth no more per sample than the guide the
-///   trial measured, as the combination floors every iteration's
-///   per-sample variance at the most-sampled film's (an earlier guide is no
-///   better, and a few-spp film misses its rare fireflies);
-/// - the trial's passes join one film as a plain mean, so a kept trial
-///   iteration is worth N² / Σ nₛ·vₛ, path tracing's noisier passes included.
-///
-/// A fallback images the trial's path-tracing passes and its rest alone.
-/// With a time budget both take the same seconds and only precision
-/// differs; with a sample budget the rest's seconds differ too.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Projection {
-    pub keep: f64,
-    pub fallback: f64,
-}
-
-impl Projection {
-    /// Whether the projection forbids a fallback that efficiency alone
-    /// would take. Unmeasurable projections forbid nothing.
-    fn keeps_guiding(&self) -> bool {
-        self.keep.is_finite() && self.fallback.is_finite() && self.keep >= self.fallback
-    }
-}
-
-/// The pooled mean of every film so far, and relMSE's normaliser from it.
-struct Mean {
-    pooled: Vec<DVec3>,
-    norm: Vec<DVec3>,
-}
 
 struct Side {
     strategy: Strategy,
@@ -263,53 +164,25 @@ impl StrategyTrial {
         self.sides.iter().all(|s| s.calls >= CALLS_PER_SIDE)
     }
 
-    /// A side's measured noise and cost, its variance measured about the
-    /// pooled mean `mu`.
-    fn measured(&self, strategy: Strategy, mu: &Mean) -> Measured {
+    /// A side's measured noise and cost.
+    fn measured(&self, strategy: Strategy, mean: &Mean) -> Measured {
         let s = self.side_of(strategy).expect("every trial has this side");
-        let spp = s.film.spp.max(1) as f64;
-        Measured {
-            per_sample_variance: relative_sample_variance(&s.film, &mu.pooled, &mu.norm),
-            seconds_per_pass: s.seconds / spp,
-        }
+        Measured::of(&s.film, s.seconds, mean)
     }
 
     /// The run's final efficiency kept and fallen back ([`Projection`]),
     /// when `best` renders the rest if guiding is kept.
-    fn projection(&self, run: &RunSoFar, mu: &Mean, best: Strategy) -> Projection {
-        let guided = self.measured(best, mu);
-        let floor = guided.per_sample_variance;
-        // NaN compares false, so it takes the no-worth branch.
-        let floored = |v: f64| {
-            if v >= floor {
-                v
-            } else if v < floor {
-                floor
-            } else {
-                f64::INFINITY
-            }
-        };
-        let finished_work: f64 = run
-            .films
+    fn projection(&self, run: &RunSoFar, mean: &Mean, best: Strategy) -> Projection {
+        let sides: Vec<(u32, Measured)> = self
+            .sides
             .iter()
-            .filter(|f| f.spp > 0)
-            .map(|f| f.spp as f64 / floored(relative_sample_variance(f, &mu.pooled, &mu.norm)))
-            .sum();
-        let (mut passes, mut spread) = (0.0, 0.0);
-        for s in &self.sides {
-            let n = s.film.spp as f64;
-            passes += n;
-            spread += n * self.measured(s.strategy, mu).per_sample_variance;
-        }
-        let trial_kept = (passes * passes / spread).min(passes / floor);
-        let (rest_precision, rest_seconds) = guided.render(run.rest);
-        let keep = (finished_work + trial_kept + rest_precision) / (run.seconds + rest_seconds);
-        let unguided = self.measured(Strategy::Unguided, mu);
-        let unguided_spp = self.unguided_film().spp as f64;
-        let (rest_precision, rest_seconds) = unguided.render(run.rest);
-        let fallback = (unguided_spp / unguided.per_sample_variance + rest_precision)
-            / (run.seconds + rest_seconds);
-        Projection { keep, fallback }
+            .map(|s| (s.film.spp, self.measured(s.strategy, mean)))
+            .collect();
+        let unguided = (
+            self.unguided_film().spp,
+            self.measured(Strategy::Unguided, mean),
+        );
+        Projection::of(run, mean, &sides, self.measured(best, mean), unguided)
     }
 
     /// The unguided side's passes so far: after a fallback, the start of
@@ -341,11 +214,7 @@ impl StrategyTrial {
         }
         let mut films: Vec<&Film> = run.films.iter().collect();
         films.extend(self.sides.iter().map(|s| &s.film));
-        let pooled = pooled_mean(&films);
-        let mu = Mean {
-            norm: relative_normaliser(&pooled, self.sides[0].film.width),
-            pooled,
-        };
+        let mu = Mean::of(&films);
         let eff = |strategy| self.measured(strategy, &mu).efficiency();
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
@@ -705,48 +574,6 @@ mod tests {
             d.declined_note.contains(GUIDING_KEPT),
             "{}",
             d.declined_note
-        );
-    }
-
-    /// An image half bright (10) and half dark (0.1). Guiding has a ninth
-    /// of path tracing's absolute variance, all won in the bright half, and
-    /// 11× its variance in the dark half: relative to the pixels' values,
-    /// as relMSE weighs them, it is 3.8× noisier. At equal cost path
-    /// tracing wins the trial.
-    #[test]
-    fn the_trial_weighs_noise_as_relmse_does() {
-        let bright = |i: usize| i % 2 == 0;
-        let mut t = StrategyTrial::new(64, 64, false);
-        let mut seed = 1;
-        let decision = loop {
-            let run = RunSoFar {
-                films: &[],
-                seconds: 1.0,
-                rest: Rest::Seconds(1e9),
-            };
-            if let Some(d) = t.decision(&run, "product", None) {
-                break d;
-            }
-            let (strategy, passes) = t.next_call();
-            let (bright_sigma, dark_sigma) = match strategy {
-                Strategy::Unguided => (3.0, 0.03),
-                _ => (1.0, 0.1),
-            };
-            let f = film_of(passes, seed, |i| {
-                if bright(i) {
-                    (10.0, bright_sigma)
-                } else {
-                    (0.1, dark_sigma)
-                }
-            });
-            t.record(&f, passes as f64);
-            seed += 1;
-        };
-        assert_eq!(
-            decision.strategy,
-            Strategy::Unguided,
-            "{}",
-            decision.declined_note
         );
     }
 }
