@@ -151,8 +151,8 @@ impl Projection {
 /// The variance is absolute, though runs are judged by relMSE. Relative
 /// variance (each channel's over μ² + ε, with a robust local μ) was tried
 /// and measured worse: at a few spp it swung 500-fold between seeds of one
-/// scene, and on veach-mis it kept guiding in runs that ended with 3.5–8×
-/// path tracing's relMSE (docs/results-reading.md, session 48).
+/// scene, and on veach-mis it kept guiding in runs that ended with up to
+/// 9× path tracing's relMSE (docs/results-reading.md, session 48).
 pub(super) struct Mean {
     pooled: Vec<DVec3>,
 }
