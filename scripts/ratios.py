@@ -64,6 +64,13 @@ def plan_outcomes(scene_dir):
     return out
 
 
+def trial_notes(outcomes, method):
+    """Runs of the method whose trial the footnote explains: imaged by path
+    tracing alone, or declining a fallback."""
+    _, pt, _, declined = outcomes.get(method, (0, 0, 0, 0))
+    return pt + declined
+
+
 def imaged(outcomes, method):
     """'k/n' runs of the method imaged by path tracing alone, with the runs
     that declined a fallback ('—' without plan lines)."""
@@ -121,7 +128,7 @@ def product_vs_radiance(root):
         n = min(len(f["product"]), len(f["radiance"]))
         vs_pt = cell(col("product", 0), col("pt", 0)) if "pt" in f else "— | —"
         plans = plan_outcomes(os.path.join(root, s))
-        any_fallback |= any(sum(plans.get(m, (0, 0, 0, 0))[1::2]) for m in ("radiance", "product"))
+        any_fallback |= any(trial_notes(plans, m) for m in ("radiance", "product"))
         print(
             f"| {s} | {n} | {imaged(plans, 'radiance')}; {imaged(plans, 'product')} | "
             f"{cell(col('product', 0), col('radiance', 0))} | "
@@ -149,7 +156,7 @@ def roulette_vs_classic(classic_root, adrrs_root):
                 col = lambda f, i: [v[i] for v in f[m]]
                 n = min(len(fa[m]), len(fc[m]))
                 fallbacks = f"{imaged(pc, m)}; {imaged(pa, m)}" if m != "pt" else "—"
-                any_fallback |= m != "pt" and sum(pa.get(m, (0, 0, 0, 0))[1::2]) + sum(pc.get(m, (0, 0, 0, 0))[1::2]) > 0
+                any_fallback |= m != "pt" and trial_notes(pa, m) + trial_notes(pc, m) > 0
                 print(
                     f"| {s} | {label} | {n} | {fallbacks} | {cell(col(fa, 0), col(fc, 0))} | "
                     f"{cell(col(fa, 1), col(fc, 1))} |"

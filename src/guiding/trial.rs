@@ -164,27 +164,6 @@ impl StrategyTrial {
         self.sides.iter().all(|s| s.calls >= CALLS_PER_SIDE)
     }
 
-    /// A side's measured noise and cost.
-    fn measured(&self, strategy: Strategy, mean: &Mean) -> Measured {
-        let s = self.side_of(strategy).expect("every trial has this side");
-        Measured::of(&s.film, s.seconds, mean)
-    }
-
-    /// The run's final efficiency kept and fallen back ([`Projection`]),
-    /// when `best` renders the rest if guiding is kept.
-    fn projection(&self, run: &RunSoFar, mean: &Mean, best: Strategy) -> Projection {
-        let sides: Vec<(u32, Measured)> = self
-            .sides
-            .iter()
-            .map(|s| (s.film.spp, self.measured(s.strategy, mean)))
-            .collect();
-        let unguided = (
-            self.unguided_film().spp,
-            self.measured(Strategy::Unguided, mean),
-        );
-        Projection::of(run, mean, &sides, self.measured(best, mean), unguided)
-    }
-
     /// The unguided side's passes so far: after a fallback, the start of
     /// the image (`super::train`).
     pub fn unguided_film(&self) -> &Film {
@@ -214,8 +193,18 @@ impl StrategyTrial {
         }
         let mut films: Vec<&Film> = run.films.iter().collect();
         films.extend(self.sides.iter().map(|s| &s.film));
-        let mu = Mean::of(&films);
-        let eff = |strategy| self.measured(strategy, &mu).efficiency();
+        let mean = Mean::of(&films);
+        // Each side's spp, and its noise and cost, measured once.
+        let sides: Vec<(u32, Measured)> = self
+            .sides
+            .iter()
+            .map(|s| (s.film.spp, Measured::of(&s.film, s.seconds, &mean)))
+            .collect();
+        let of = |strategy| {
+            let i = self.sides.iter().position(|s| s.strategy == strategy);
+            sides[i.expect("every trial has this side")]
+        };
+        let eff = |strategy| of(strategy).1.efficiency();
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
         let mut guided = (Strategy::Model, eff(Strategy::Model), model);
@@ -238,7 +227,7 @@ impl StrategyTrial {
             }
         }
         let eu = eff(Strategy::Unguided);
-        let projection = self.projection(run, &mu, guided.0);
+        let projection = Projection::of(run, &mean, &sides, of(guided.0).1, of(Strategy::Unguided));
         let falls_back = eu > guided.1 && !projection.keeps_guiding();
         if !finished {
             // Unmeasurable (0) everywhere is no lead.
