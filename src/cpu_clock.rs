@@ -47,6 +47,12 @@ impl PoolCpuClock {
     pub fn total_seconds(&self) -> Option<f64> {
         self.clocks.iter().map(|&id| read_clock(id)).sum()
     }
+
+    /// Each thread's CPU seconds so far, in the pool's thread order, or
+    /// `None` when any clock cannot be read.
+    pub fn thread_seconds(&self) -> Option<Vec<f64>> {
+        self.clocks.iter().map(|&id| read_clock(id)).collect()
+    }
 }
 
 /// Works until the calling thread has used `seconds` of CPU (on a loaded

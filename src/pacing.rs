@@ -3,7 +3,7 @@
 
 use crate::cpu_clock::PoolCpuClock;
 use crate::film::image::Image;
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::time::Instant;
 
 /// What a run's budget, snapshot times and training schedule are measured in.
@@ -13,10 +13,11 @@ pub enum TimeBase {
     /// Wall-clock seconds: what a user waits for.
     #[default]
     Wall,
-    /// The render's own CPU seconds per thread of its pool: wall time when
-    /// the render has its cores to itself, and, side by side with other
-    /// renders, independent of how the scheduler shares the cores among
-    /// them (see [`crate::cpu_clock`]).
+    /// The render's own CPU seconds, as the wall time it would take with
+    /// its cores to itself: work spread over the pool's threads at its
+    /// per-thread mean, work between them at its busiest thread's time.
+    /// Side by side with other renders it does not depend on how the
+    /// scheduler shares the cores among them (see [`crate::cpu_clock`]).
     Cpu,
 }
 
@@ -29,25 +30,84 @@ pub struct RenderClock {
     wall_excluded: f64,
     cpu: Option<CpuSeconds>,
     excluded: f64,
+    /// Of `excluded`, the part charged beyond the per-thread mean.
+    excluded_serial: f64,
 }
 
-/// A pool's CPU time per thread since the run started. A clock that
-/// stops reading (it cannot while the pool lives) advances with wall time
-/// from its last reading instead, so a deadline is still reached, and the
-/// failed reads are counted.
+/// A pool's CPU time since the run started, counted as the wall time the
+/// run would have taken with its cores to itself, and not as the scheduler
+/// happened to share them.
+///
+/// Work spread over the pool's threads (a render call, marked by
+/// [`RenderClock::parallel`]) is charged at its per-thread mean: a thread
+/// that waits in the run queue lets the others take its share, and the
+/// mean is the same however the work was shared. Everything else (tree
+/// refinement, the combination of iterations, the trial's decisions) runs
+/// on one thread while the others idle, or in short parallel steps, so each
+/// interval between reads is charged at its busiest thread's CPU time,
+/// which is the per-thread mean for evenly shared work. With one thread
+/// both are the same; with N, a per-thread mean alone charged
+/// single-threaded work at 1/N, a discount that methods with more of it
+/// (the guided ones) got and path tracing did not.
+///
+/// Inside render calls the busiest thread is a poor measure on a shared
+/// host: with two threads on staircase, 20 s, calls' busiest threads ran
+/// 0–15 % above their mean (5 % over the run) on a host where nothing else
+/// of ours ran, while the work outside the calls charged 0.09 s more than
+/// its mean (session 49).
+///
+/// A clock that stops reading (it cannot while the pool lives) advances
+/// with wall time from its last reading instead, so a deadline is still
+/// reached, and the failed reads are counted.
 #[derive(Clone, Debug)]
 struct CpuSeconds {
     clock: PoolCpuClock,
-    start: f64,
+    /// Each thread's CPU seconds at the last successful read.
+    threads_last: RefCell<Vec<f64>>,
+    /// Seconds charged by successful reads.
+    charged: Cell<f64>,
+    /// Of those, seconds charged beyond the per-thread mean.
+    serial: Cell<f64>,
+    /// Inside [`RenderClock::parallel`].
+    parallel: Cell<bool>,
+    /// The clock's last value (monotone across failed reads) and when.
     last: Cell<(f64, Instant)>,
     failed_reads: Cell<u64>,
 }
 
 impl CpuSeconds {
+    fn new(clock: PoolCpuClock) -> Result<Self, String> {
+        let start = clock
+            .thread_seconds()
+            .ok_or("cannot read a render thread's CPU clock")?;
+        Ok(CpuSeconds {
+            clock,
+            threads_last: RefCell::new(start),
+            charged: Cell::new(0.0),
+            serial: Cell::new(0.0),
+            parallel: Cell::new(false),
+            last: Cell::new((0.0, Instant::now())),
+            failed_reads: Cell::new(0),
+        })
+    }
+
     fn read(&self) -> f64 {
         let (last, at) = self.last.get();
-        let now = match self.clock.total_seconds() {
-            Some(total) => (total - self.start) / self.clock.threads() as f64,
+        let now = match self.clock.thread_seconds() {
+            Some(threads) => {
+                let mut before = self.threads_last.borrow_mut();
+                let delta = |i: usize| (threads[i] - before[i]).max(0.0);
+                let mean = (0..threads.len()).map(delta).sum::<f64>() / threads.len() as f64;
+                let busiest = match self.parallel.get() {
+                    true => 0.0,
+                    false => (0..threads.len()).map(delta).fold(0.0, f64::max),
+                };
+                let beyond_mean = (busiest - mean).max(0.0);
+                self.charged.set(self.charged.get() + mean + beyond_mean);
+                self.serial.set(self.serial.get() + beyond_mean);
+                *before = threads;
+                self.charged.get()
+            }
             None => {
                 self.failed_reads.set(self.failed_reads.get() + 1);
                 last + at.elapsed().as_secs_f64()
@@ -68,22 +128,15 @@ impl RenderClock {
             wall_excluded: 0.0,
             cpu: None,
             excluded: 0.0,
+            excluded_serial: 0.0,
         }
     }
 
     /// A clock on the CPU time of the pool whose threads `cpu` reads (per
     /// thread), started now. The pool must run the whole render.
     pub fn on_cpu(cpu: PoolCpuClock) -> Result<Self, String> {
-        let start = cpu
-            .total_seconds()
-            .ok_or("cannot read a render thread's CPU clock")?;
         Ok(RenderClock {
-            cpu: Some(CpuSeconds {
-                clock: cpu,
-                start,
-                last: Cell::new((0.0, Instant::now())),
-                failed_reads: Cell::new(0),
-            }),
+            cpu: Some(CpuSeconds::new(cpu)?),
             ..RenderClock::start()
         })
     }
@@ -113,13 +166,37 @@ impl RenderClock {
         self.cpu.as_ref().map_or(0, |c| c.failed_reads.get())
     }
 
+    /// Runs `f`, work spread over every thread of the pool, charging it at
+    /// its per-thread mean (see [`CpuSeconds`]). Outside such sections the
+    /// CPU clock charges each interval at its busiest thread's time.
+    pub fn parallel<T>(&self, f: impl FnOnce() -> T) -> T {
+        let Some(cpu) = &self.cpu else { return f() };
+        cpu.read();
+        cpu.parallel.set(true);
+        let out = f();
+        cpu.read();
+        cpu.parallel.set(false);
+        out
+    }
+
+    /// CPU seconds the clock charged beyond its pool's per-thread mean:
+    /// single-threaded work outside render calls, charged in full (0 on
+    /// the wall clock and with one thread).
+    pub fn serial_seconds(&self) -> f64 {
+        self.cpu
+            .as_ref()
+            .map_or(0.0, |c| c.serial.get() - self.excluded_serial)
+    }
+
     /// Runs `f` without charging its time to the render.
     pub fn excluding<T>(&mut self, f: impl FnOnce() -> T) -> T {
         let (t0, wall0) = (self.seconds(), Instant::now());
+        let serial0 = self.serial_seconds();
         let out = f();
         self.wall_excluded += wall0.elapsed().as_secs_f64();
         if self.cpu.is_some() {
             self.excluded += self.seconds() - t0;
+            self.excluded_serial += self.serial_seconds() - serial0;
         }
         out
     }
@@ -324,6 +401,52 @@ mod tests {
         assert_eq!(wall.base(), TimeBase::Wall);
         std::thread::sleep(std::time::Duration::from_millis(20));
         assert!(wall.seconds() >= 0.02);
+    }
+
+    /// Work between render calls that runs on one thread while the others
+    /// idle is charged in full, not at 1/N: with two threads a per-thread
+    /// mean alone charged it at half. Render calls and evenly shared work
+    /// stay at their per-thread mean, and `excluding` leaves out both
+    /// kinds.
+    #[test]
+    fn the_cpu_clock_charges_single_threaded_work_in_full() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let mut clock = RenderClock::on_cpu(PoolCpuClock::of(&pool).unwrap()).unwrap();
+        let clock = &mut clock;
+        let pool = &pool;
+        let moved = |clock: &RenderClock, f: &dyn Fn()| {
+            let t0 = clock.seconds();
+            f();
+            clock.seconds() - t0
+        };
+        pool.install(|| {
+            let call = moved(clock, &|| {
+                clock.parallel(|| pool.broadcast(|_| spin_cpu(0.2)));
+            });
+            assert!((0.19..0.27).contains(&call), "render call: {call} s");
+            assert!(clock.serial_seconds() < 0.01);
+            let alone = moved(clock, &|| {
+                std::hint::black_box(spin_cpu(0.2));
+            });
+            assert!(
+                (0.19..0.27).contains(&alone),
+                "0.2 s on one of 2 threads moved the clock {alone} s"
+            );
+            let serial = clock.serial_seconds();
+            assert!((0.09..0.14).contains(&serial), "serial {serial} s");
+            let shared = moved(clock, &|| {
+                pool.broadcast(|_| spin_cpu(0.2));
+            });
+            assert!((0.19..0.3).contains(&shared), "shared work: {shared} s");
+            let before = clock.seconds();
+            let serial = clock.serial_seconds();
+            clock.excluding(|| std::hint::black_box(spin_cpu(0.2)));
+            assert!((clock.seconds() - before).abs() < 0.03);
+            assert!((clock.serial_seconds() - serial).abs() < 0.03);
+        });
     }
 
     /// Calls take what is left of a sample budget (at most 16 passes), one

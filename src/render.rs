@@ -222,6 +222,12 @@ pub struct RenderStats {
     /// Reads of a CPU clock that failed, each advancing the clock by wall
     /// time instead (0 on any normal system).
     pub clock_read_failures: u64,
+    /// Of `clock_seconds` on the CPU clock, the seconds charged beyond the
+    /// pool's per-thread mean for single-threaded work between render
+    /// calls (tree refinement, the iterations' combination, …): what a
+    /// per-thread mean alone would have left out with more than one
+    /// thread. 0 on the wall clock and with one thread.
+    pub clock_serial_seconds: f64,
     pub paths_per_second: f64,
     /// CPU time of the render's own threads (snapshots included; NaN if
     /// the clock cannot be read). On a shared machine it compares builds
@@ -436,6 +442,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         time_base: clock.base(),
         clock_seconds,
         clock_read_failures: clock.failed_reads(),
+        clock_serial_seconds: clock.serial_seconds(),
         paths_per_second: counters.paths as f64 / seconds.max(1e-9),
         cpu_seconds,
         rays_per_second: (counters.rays + counters.shadow_rays) as f64 / seconds.max(1e-9),
@@ -534,16 +541,18 @@ fn render_unguided(
             Budget::Seconds(_) => None,
         };
         let n = pacer.next_call(start, passes_left, deadline, snapshots);
-        let c = render_passes_into(
-            scene,
-            &NoGuide,
-            &opts.path,
-            opts.seed,
-            pass..pass + n,
-            None,
-            &mut film,
-            &mut Vec::new(),
-        );
+        let c = clock.parallel(|| {
+            render_passes_into(
+                scene,
+                &NoGuide,
+                &opts.path,
+                opts.seed,
+                pass..pass + n,
+                None,
+                &mut film,
+                &mut Vec::new(),
+            )
+        });
         counters.add(&c);
         pass += n;
         let now = clock.seconds();

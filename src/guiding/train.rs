@@ -280,15 +280,17 @@ pub fn render_guided<M: WeightModel>(
                     record_buffers = Vec::new();
                     record_scratch = RecordScratch::default();
                 }
-                let out = render_passes(
-                    scene,
-                    &guide,
-                    &opts.path,
-                    opts.seed,
-                    passes,
-                    pixel_estimates.as_deref(),
-                    &mut record_buffers,
-                );
+                let out = clock.parallel(|| {
+                    render_passes(
+                        scene,
+                        &guide,
+                        &opts.path,
+                        opts.seed,
+                        passes,
+                        pixel_estimates.as_deref(),
+                        &mut record_buffers,
+                    )
+                });
                 let render_seconds = clock.seconds() - call_start;
                 counters.add(&out.counters);
                 if training {
@@ -307,15 +309,17 @@ pub fn render_guided<M: WeightModel>(
                     adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
                     ..opts.path
                 };
-                let out = render_passes(
-                    scene,
-                    &NoGuide,
-                    &unguided,
-                    opts.seed,
-                    passes,
-                    None,
-                    &mut Vec::new(),
-                );
+                let out = clock.parallel(|| {
+                    render_passes(
+                        scene,
+                        &NoGuide,
+                        &unguided,
+                        opts.seed,
+                        passes,
+                        None,
+                        &mut Vec::new(),
+                    )
+                });
                 counters.add(&out.counters);
                 (out.film, clock.seconds() - call_start)
             };
