@@ -296,6 +296,9 @@ impl RunWork {
     }
 }
 
+/// Leaves per parallel job of the record pass and the trees' rebuild.
+pub const LEAVES_PER_JOB: usize = 8;
+
 /// Records all buffers (in index order) into `tree`'s recording quadtrees
 /// and steps the leaves' BSDF fractions, with memory of its own; see
 /// [`record_pass_reusing`].
@@ -339,6 +342,9 @@ pub fn record_pass_reusing(
         .leaves_mut()
         .par_iter_mut()
         .enumerate()
+        // Leaves differ in their records by orders of magnitude; small jobs
+        // let an idle thread take over what another's run has left.
+        .with_max_len(LEAVES_PER_JOB)
         .map_init(Vec::new, |steps, (i, leaf)| {
             for run in work {
                 for &(p, v) in run.splats(i) {

@@ -319,12 +319,14 @@ impl SdTree {
     /// Rebuilds every leaf's sampling tree from its recording tree.
     pub fn refine_directional(&mut self) {
         let builder = self.config.builder;
-        self.leaves.par_iter_mut().for_each(|leaf| {
-            if let Some(t) = builder.build(&leaf.recording) {
-                leaf.sampling = t;
-            }
-            leaf.recording = leaf.sampling.structure_copy();
-        });
+        let jobs = self.leaves.par_iter_mut();
+        jobs.with_max_len(super::record::LEAVES_PER_JOB)
+            .for_each(|leaf| {
+                if let Some(t) = builder.build(&leaf.recording) {
+                    leaf.sampling = t;
+                }
+                leaf.recording = leaf.sampling.structure_copy();
+            });
     }
 
     /// BSDF-sampling fraction of a leaf.
