@@ -351,6 +351,9 @@ pub fn fit_table(opts: &FitOptions) -> Result<(LtcTable, Vec<f64>), String> {
     column.reverse();
     let rows: Vec<Vec<(NodeFit, f64)>> = (0..n)
         .into_par_iter()
+        // A row per job: rows differ in cost, and rayon cannot split a run
+        // of rows once a thread has started it.
+        .with_max_len(1)
         .map(|i| {
             let alpha = alpha_of_index(i, n, opts.alpha_min);
             let mut row = Vec::with_capacity(n);
