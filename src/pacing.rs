@@ -50,11 +50,9 @@ pub struct RenderClock {
 /// single-threaded work at 1/N, a discount that methods with more of it
 /// (the guided ones) got and path tracing did not.
 ///
-/// Inside render calls the busiest thread is a poor measure on a shared
-/// host: with two threads on staircase, 20 s, calls' busiest threads ran
-/// 0–15 % above their mean (5 % over the run) on a host where nothing else
-/// of ours ran, while the work outside the calls charged 0.09 s more than
-/// its mean (session 49).
+/// Inside render calls the busiest thread would measure how the work
+/// happened to be shared, not how much there was: a thread descheduled
+/// for another process's sake hands its share to the others.
 ///
 /// A clock that stops reading (it cannot while the pool lives) advances
 /// with wall time from its last reading instead, so a deadline is still
