@@ -491,6 +491,10 @@ fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         );
     }
     let cpu_time = match s.time_base {
+        TimeBase::Cpu if s.threads > 1 => format!(
+            ", {:.2} CPU s per thread, {:.2} s of it single-threaded work charged in full",
+            s.clock_seconds, s.clock_serial_seconds
+        ),
         TimeBase::Cpu => format!(", {:.2} CPU s per thread", s.clock_seconds),
         TimeBase::Wall => String::new(),
     };
