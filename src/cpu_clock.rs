@@ -45,7 +45,7 @@ impl PoolCpuClock {
     /// CPU seconds the pool's threads have consumed so far, summed, or
     /// `None` when any clock cannot be read.
     pub fn total_seconds(&self) -> Option<f64> {
-        self.clocks.iter().map(|&id| read_clock(id)).sum()
+        self.thread_seconds().map(|t| t.iter().sum())
     }
 
     /// Each thread's CPU seconds so far, in the pool's thread order, or

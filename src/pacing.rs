@@ -96,13 +96,12 @@ impl CpuSeconds {
                 let mut before = self.threads_last.borrow_mut();
                 let delta = |i: usize| (threads[i] - before[i]).max(0.0);
                 let mean = (0..threads.len()).map(delta).sum::<f64>() / threads.len() as f64;
-                let busiest = match self.parallel.get() {
-                    true => 0.0,
-                    false => (0..threads.len()).map(delta).fold(0.0, f64::max),
+                let charge = match self.parallel.get() {
+                    true => mean,
+                    false => (0..threads.len()).map(delta).fold(mean, f64::max),
                 };
-                let beyond_mean = (busiest - mean).max(0.0);
-                self.charged.set(self.charged.get() + mean + beyond_mean);
-                self.serial.set(self.serial.get() + beyond_mean);
+                self.charged.set(self.charged.get() + charge);
+                self.serial.set(self.serial.get() + (charge - mean));
                 *before = threads;
                 self.charged.get()
             }

@@ -319,8 +319,9 @@ impl SdTree {
     /// Rebuilds every leaf's sampling tree from its recording tree.
     pub fn refine_directional(&mut self) {
         let builder = self.config.builder;
-        let jobs = self.leaves.par_iter_mut();
-        jobs.with_max_len(super::record::LEAVES_PER_JOB)
+        self.leaves
+            .par_iter_mut()
+            .with_max_len(super::record::LEAVES_PER_JOB)
             .for_each(|leaf| {
                 if let Some(t) = builder.build(&leaf.recording) {
                     leaf.sampling = t;
