@@ -30,8 +30,6 @@ pub struct RenderClock {
     wall_excluded: f64,
     cpu: Option<CpuSeconds>,
     excluded: f64,
-    /// Of `excluded`, the part charged beyond the per-thread mean.
-    excluded_serial: f64,
 }
 
 /// A pool's CPU time since the run started, counted as the wall time the
@@ -125,7 +123,6 @@ impl RenderClock {
             wall_excluded: 0.0,
             cpu: None,
             excluded: 0.0,
-            excluded_serial: 0.0,
         }
     }
 
@@ -180,9 +177,7 @@ impl RenderClock {
     /// single-threaded work outside render calls, charged in full (0 on
     /// the wall clock and with one thread).
     pub fn serial_seconds(&self) -> f64 {
-        self.cpu
-            .as_ref()
-            .map_or(0.0, |c| c.serial.get() - self.excluded_serial)
+        self.cpu.as_ref().map_or(0.0, |c| c.serial.get())
     }
 
     /// Runs `f` without charging its time to the render.
@@ -193,7 +188,9 @@ impl RenderClock {
         self.wall_excluded += wall0.elapsed().as_secs_f64();
         if self.cpu.is_some() {
             self.excluded += self.seconds() - t0;
-            self.excluded_serial += self.serial_seconds() - serial0;
+        }
+        if let Some(cpu) = &self.cpu {
+            cpu.serial.set(serial0);
         }
         out
     }
@@ -380,16 +377,22 @@ mod tests {
     use super::*;
     use crate::cpu_clock::spin_cpu;
 
+    /// A pool of 2 threads and a CPU clock on it.
+    fn two_thread_clock() -> (rayon::ThreadPool, RenderClock) {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let clock = RenderClock::on_cpu(PoolCpuClock::of(&pool).unwrap()).unwrap();
+        (pool, clock)
+    }
+
     /// The CPU clock advances with its pool's work alone, per thread, and
     /// leaves out what runs inside `excluding`; the wall clock it keeps
     /// advances regardless.
     #[test]
     fn the_cpu_clock_counts_its_pools_work_per_thread() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
-        let mut clock = RenderClock::on_cpu(PoolCpuClock::of(&pool).unwrap()).unwrap();
+        let (pool, mut clock) = two_thread_clock();
         assert_eq!(clock.base(), TimeBase::Cpu);
         std::thread::sleep(std::time::Duration::from_millis(150));
         let idle = clock.seconds();
@@ -422,11 +425,7 @@ mod tests {
     /// kinds.
     #[test]
     fn the_cpu_clock_charges_single_threaded_work_in_full() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(2)
-            .build()
-            .unwrap();
-        let mut clock = RenderClock::on_cpu(PoolCpuClock::of(&pool).unwrap()).unwrap();
+        let (pool, mut clock) = two_thread_clock();
         let clock = &mut clock;
         let pool = &pool;
         let moved = |clock: &RenderClock, f: &dyn Fn()| {

@@ -174,7 +174,11 @@ impl StrategyTrial {
     }
 
     fn side_of(&self, strategy: Strategy) -> Option<&Side> {
-        self.sides.iter().find(|s| s.strategy == strategy)
+        self.index_of(strategy).map(|i| &self.sides[i])
+    }
+
+    fn index_of(&self, strategy: Strategy) -> Option<usize> {
+        self.sides.iter().position(|s| s.strategy == strategy)
     }
 
     /// The strategy for the rest of the run, with the reports, once the
@@ -200,10 +204,7 @@ impl StrategyTrial {
             .iter()
             .map(|s| (s.film.spp, Measured::of(&s.film, s.seconds, &mean)))
             .collect();
-        let of = |strategy| {
-            let i = self.sides.iter().position(|s| s.strategy == strategy);
-            sides[i.expect("every trial has this side")]
-        };
+        let of = |strategy| sides[self.index_of(strategy).expect("every trial has this side")];
         let eff = |strategy| of(strategy).1.efficiency();
         let side = |st| self.side_of(st).expect("every trial has this side");
         let model_side = side(Strategy::Model);
