@@ -186,11 +186,10 @@ impl RenderClock {
         let serial0 = self.serial_seconds();
         let out = f();
         self.wall_excluded += wall0.elapsed().as_secs_f64();
-        if self.cpu.is_some() {
-            self.excluded += self.seconds() - t0;
-        }
         if let Some(cpu) = &self.cpu {
+            let spent = self.seconds() - t0;
             cpu.serial.set(serial0);
+            self.excluded += spent;
         }
         out
     }
