@@ -13,7 +13,7 @@
 //! - [`schedule`]: the training schedule;
 //! - [`combine`]: the inverse-variance combination of iterations;
 //! - [`support`]: radiance weights restricted to a reflecting surface's
-//!   hemisphere;
+//!   hemisphere, with [`plane_share`], the share of a cell above a plane;
 //! - [`trial`]: the plan's measured choice between the guide's weights and
 //!   path tracing;
 //! - [`projection`]: what a fallback to path tracing would cost the run;
@@ -51,6 +51,7 @@ pub mod descent;
 pub mod fallback_image;
 pub mod guide;
 pub mod pixel_reuse;
+pub mod plane_share;
 pub mod product;
 pub mod projection;
 pub mod quadtree;
