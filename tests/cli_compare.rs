@@ -3,22 +3,11 @@
 //! would overwrite the reference or cannot be written, and a method named
 //! twice. Each case checks the exit code and the one error line.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{default_scene, work_dir};
+use std::path::Path;
 use std::process::Command;
-
-fn work_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "ltcguide-cli-compare-{}-{name}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn default_scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/stiff/scene.xml")
-}
 
 /// `error` and `compare` refuse an image with a NaN, Inf or negative
 /// pixel (relMSE would be NaN): exit 2, one error line naming the file

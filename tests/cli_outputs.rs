@@ -5,19 +5,11 @@
 //! fired, EXR files reproducible byte for byte, and the scene's max depth.
 //! `compare`'s and `error`'s refusals are in `cli_compare.rs`.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{default_scene, work_dir};
+use std::path::Path;
 use std::process::Command;
-
-fn work_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ltcguide-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn default_scene() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/stiff/scene.xml")
-}
 
 /// A mirror sphere under an area light: no vertex a guide could sample.
 const DELTA_ONLY: &str = r#"<scene version="3.0.0">

@@ -21,6 +21,20 @@ pub const PACK_SCENES: [&str; 5] = [
     "living-room",
 ];
 
+/// A fresh scratch directory for a test named `name`: per process, so
+/// test binaries running at once do not share it.
+pub fn work_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ltcguide-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The small stiff scene that ships with ltcguide.
+pub fn default_scene() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/stiff/scene.xml")
+}
+
 /// `../shared/scenes` next to the repository, if present.
 pub fn pack_dir() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes");

@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
 use ltcguide::directional::Cell;
-use ltcguide::guiding::descent::{self};
+use ltcguide::guiding::descent;
 use ltcguide::guiding::guide::WeightModel;
 use ltcguide::guiding::product::{
     CosineLobes, ProductCache, ProductModel, ProductWeights, guiding_ltc_options,
