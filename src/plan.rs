@@ -142,8 +142,9 @@ pub fn lobe_inventory(scene: &Scene) -> LobeInventory {
     inv
 }
 
-/// The plan of a run; `cosine_lobes`, `product_vertices` and `pixel_reuse`
-/// are product guiding's settings (see `guiding::product`).
+/// The plan of a run; `cosine_lobes`, `product_vertices`, `pixel_reuse`
+/// and `radiance_share` are product guiding's settings (see
+/// `guiding::product` and `guiding::defensive`).
 pub fn plan(
     scene: &Scene,
     requested: Method,
@@ -151,6 +152,7 @@ pub fn plan(
     cosine_lobes: CosineLobes,
     product_vertices: u32,
     pixel_reuse: bool,
+    radiance_share: f32,
 ) -> ScenePlan {
     let inv = lobe_inventory(scene);
     let mut reasons = Vec::new();
@@ -173,7 +175,11 @@ pub fn plan(
     if product_weights {
         reasons.push(format!(
             "product weights at {}",
-            crate::guiding::product::product_weights_scope(product_vertices, pixel_reuse)
+            crate::guiding::product::product_weights_scope(
+                product_vertices,
+                pixel_reuse,
+                radiance_share,
+            )
         ));
     }
     let form_factors = product

@@ -90,6 +90,9 @@ pub struct RenderOptions {
     /// first vertex's product lobe while it matches
     /// (`guiding::pixel_reuse`); off: the paper's lobe per vertex.
     pub pixel_reuse: bool,
+    /// Product guiding: the share β of guided samples at product-weighted
+    /// vertices drawn from the radiance descent (`guiding::defensive`).
+    pub radiance_share: f32,
     /// Guided methods: the radiance weights over the sphere or on a
     /// reflecting surface's hemisphere.
     pub guide_support: GuideSupport,
@@ -130,6 +133,7 @@ impl Default for RenderOptions {
             cosine_lobes: CosineLobes::default(),
             product_vertices: crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
             pixel_reuse: true,
+            radiance_share: crate::guiding::defensive::DEFAULT_RADIANCE_SHARE,
             guide_support: GuideSupport::Sphere,
             use_plan: true,
             spatial_threshold: None,
@@ -160,6 +164,7 @@ impl RenderOptions {
             crate::guiding::adam::check_l2(l)?;
         }
         check_guide_support(self.method, self.guide_support)?;
+        crate::guiding::defensive::check_radiance_share(self.radiance_share)?;
         SnapshotPlan::check_times(&self.snapshot_times)
     }
 }
@@ -303,6 +308,7 @@ pub fn run_plan(scene: &Scene, opts: &RenderOptions) -> crate::plan::ScenePlan {
         opts.cosine_lobes,
         opts.product_vertices,
         opts.pixel_reuse,
+        opts.radiance_share,
     );
     if !opts.use_plan {
         plan.method = opts.method;
@@ -391,6 +397,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                         cosine_lobes: opts.cosine_lobes,
                         product_vertices: opts.product_vertices,
                         reuse_in_pixel: opts.pixel_reuse,
+                        radiance_share: opts.radiance_share,
                     };
                     guided(render_guided(
                         scene,

@@ -95,6 +95,7 @@ fn attribution_pairs_differ_only_in_the_method() {
         other_roulette: RouletteMode::Classic,
         exact_integrals,
         bsdf_fraction_l2: None,
+        radiance_share: 0.3,
         clock: TimeBase::Cpu,
         progress: false,
     };
@@ -293,6 +294,7 @@ fn attribution_refuses_options_it_cannot_run() {
         other_roulette: RouletteMode::Classic,
         exact_integrals: false,
         bsdf_fraction_l2: None,
+        radiance_share: 0.3,
         clock: TimeBase::Wall,
         progress: false,
     };
@@ -323,6 +325,10 @@ fn attribution_refuses_options_it_cannot_run() {
         },
         AttributionOptions {
             other_roulette: RouletteMode::Adrrs,
+            ..good.clone()
+        },
+        AttributionOptions {
+            radiance_share: 1.0,
             ..good.clone()
         },
         AttributionOptions {

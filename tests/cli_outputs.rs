@@ -223,6 +223,8 @@ fn bad_arguments_are_refused_before_the_scene_is_read() {
             "--bsdf-fraction",
         ),
         (&["--adrrs-window", "0.5"], "--adrrs-window"),
+        (&["--radiance-share", "1"], "--radiance-share"),
+        (&["--radiance-share", "NaN"], "--radiance-share"),
         (
             &["--method", "product", "--guide-support", "hemisphere"],
             "--guide-support hemisphere applies to --method radiance",

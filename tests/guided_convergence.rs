@@ -423,6 +423,29 @@ fn assert_agrees_with_pt(label: &str, guided: &RenderResult) {
     assert_blocks_agree(label, &cmp);
 }
 
+/// A product run whose guided samples come half from radiance weights
+/// (`guiding::defensive`), and one from the product alone, both converge
+/// to path tracing's image: the mixture's pdf is the one its samples have.
+/// The plan is off, so product weights stay on throughout.
+#[test]
+fn a_radiance_share_changes_no_expectation() {
+    let scene = own_scene();
+    // With NEE: without it the gap's light makes the per-block variance
+    // estimates heavy-tailed at 48 spp (mean z² 2.4 at β = 0, the paper's
+    // product), which says nothing about the expectation.
+    let path = short_paths(true, RouletteMode::Classic);
+    for share in [0.0, 0.5, 0.9] {
+        let opts = RenderOptions {
+            use_plan: false,
+            radiance_share: share,
+            ..options(Method::Product, 48, 11, path)
+        };
+        let product = render(&scene, &opts).unwrap();
+        assert_is_guided("glossy-gap", Method::Product, &product);
+        assert_agrees_with_pt(&format!("product, radiance share {share}"), &product);
+    }
+}
+
 /// With the plan on, a product run spends its check iteration alternating
 /// product weights, radiance weights and path tracing, keeps whichever
 /// measured most efficient, and says which in its plan; whichever it keeps,

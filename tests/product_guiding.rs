@@ -10,6 +10,7 @@ mod product_common;
 
 use glam::{Vec2, Vec3};
 use ltcguide::directional::{Cell, dir_to_square, square_to_dir};
+use ltcguide::guiding::defensive;
 use ltcguide::guiding::descent::{self, ChildWeights};
 use ltcguide::guiding::product::ProductCache;
 use ltcguide::guiding::quadtree::QuadTree;
@@ -70,6 +71,115 @@ fn product_sampling_matches_its_pdf_chi2() {
                 model.options, case.alpha, case.theta_o_deg, case.normal, out.message
             );
         }
+    }
+}
+
+/// The product mixed with a radiance share (`guiding::defensive`): its
+/// samples follow (1 − β)·product + β·radiance, the exact bin
+/// probabilities of both descents mixed, at every case and two shares; and
+/// the pdf of a sampled point is the returned pdf bit for bit.
+#[test]
+fn product_with_a_radiance_share_matches_its_pdf_chi2() {
+    let table = default_ltc_table().unwrap();
+    let model = render_options_model(table);
+    let mut rng = Rng::new(2026, 52);
+    let cases = cases(&mut rng);
+    let shares = [0.3f32, 0.7];
+    let cfg = Chi2Config {
+        res_x: 16,
+        res_y: 32,
+        samples: 60_000,
+        significance: 0.01 / (cases.len() * shares.len()) as f64,
+        min_expected: 5.0,
+    };
+    for (ci, case) in cases.iter().enumerate() {
+        for &share in &shares {
+            let tree = random_tree(&mut rng, 200);
+            let mut cache = ProductCache::default();
+            let mut w = weights_for(case, &model, &mut rng, &mut cache).unwrap();
+            let product = exact_bin_probabilities(&tree, &mut w, cfg.res_x, cfg.res_y);
+            let radiance =
+                exact_bin_probabilities(&tree, &mut descent::RadianceWeights, cfg.res_x, cfg.res_y);
+            // Radiance weights (the grazing case's fallback) ignore the share.
+            let s = if w.is_radiance() { 0.0 } else { share as f64 };
+            let expected: Vec<f64> = product
+                .iter()
+                .zip(&radiance)
+                .map(|(p, r)| (1.0 - s) * p + s * r)
+                .collect();
+            let mut srng = Rng::new(ci as u64, 7);
+            let out = chi2_square_expected(
+                &cfg,
+                || defensive::sample(&tree, &mut w, share, srng.next_2d()).map(|(p, _)| p),
+                &expected,
+            );
+            assert!(
+                out.passed,
+                "share {share}, case {ci} (α {}, θ_o {}°): {}",
+                case.alpha, case.theta_o_deg, out.message
+            );
+            for _ in 0..500 {
+                let (p, pdf) = defensive::sample(&tree, &mut w, share, rng.next_2d()).unwrap();
+                assert_eq!(defensive::pdf(&tree, &mut w, share, p), pdf);
+                assert!(pdf > 0.0);
+            }
+        }
+    }
+}
+
+/// The guide's vertex under product weights samples and evaluates the
+/// mixture with the model's share: the pdf it returns for a sample is its
+/// pdf of that direction, and it is the mixture of the two descents'.
+#[test]
+fn the_guide_vertex_mixes_with_the_models_share() {
+    use ltcguide::guiding::guide::SdGuide;
+    use ltcguide::guiding::sdtree::{SdTree, SdTreeConfig};
+    use ltcguide::integrator::guide::{Guide, GuideVertex};
+    use ltcguide::integrator::stats::RenderCounters;
+    let table = default_ltc_table().unwrap();
+    let mut rng = Rng::new(52, 1);
+    let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::ONE, SdTreeConfig::default());
+    let quadtree = random_tree(&mut rng, 300);
+    tree.leaves_mut()[0].sampling = quadtree.clone();
+    let frame = Frame::from_normal(Vec3::new(0.2, -0.3, 0.93).normalize());
+    let bsdf = material(0.05, false).at(Vec2::ZERO);
+    let wo = wo_at(40.0, 1.0);
+    for share in [0.0f32, 0.4] {
+        let model = ltcguide::guiding::product::ProductModel {
+            radiance_share: share,
+            ..render_options_model(table)
+        };
+        let guide = SdGuide {
+            tree: &tree,
+            model: &model,
+            learning: false,
+            fixed_alpha: None,
+        };
+        let ctx = first_vertex(&frame, wo, &bsdf);
+        let (mut cache, mut counters) = (ProductCache::default(), RenderCounters::default());
+        let at = guide.locate(ctx.p);
+        let mut v = guide.vertex(&ctx, at, &mut cache, &mut counters).unwrap();
+        let mut wcache = ProductCache::default();
+        let mut w = weights_at(&model, frame.n, wo, &bsdf, &mut wcache).unwrap();
+        assert!(!w.is_radiance());
+        let mut mixed = 0;
+        for _ in 0..300 {
+            let (dir, pdf) = v.sample(rng.next_2d()).unwrap();
+            assert_eq!(v.pdf(dir), pdf);
+            let product = descent::pdf_direction(&quadtree, &mut w, dir);
+            let radiance = descent::pdf_direction(&quadtree, &mut descent::RadianceWeights, dir);
+            let expected = (1.0 - share) * product + share * radiance;
+            assert!(
+                (pdf - expected).abs() <= 1e-5 * expected,
+                "{pdf} against {expected}"
+            );
+            mixed += (pdf != product) as u32;
+        }
+        assert_eq!(
+            mixed > 0,
+            share > 0.0,
+            "share {share}: {mixed} of 300 mixed"
+        );
     }
 }
 

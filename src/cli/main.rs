@@ -136,6 +136,14 @@ pub struct ProductArgs {
     /// spp/s on staircase, about 0.88× on average (docs/results-reading.md).
     #[arg(long)]
     pub no_pixel_reuse: bool,
+    /// Product guiding: the share β of guided samples at product-weighted
+    /// vertices drawn from the radiance descent instead of the product's,
+    /// in [0, 1); the pdf is the mixture. The tree's radiance is blurred
+    /// over a leaf, and inside that blur the product follows the BSDF
+    /// where the light may not be (docs/results-reading.md, session 52).
+    /// 0: the paper's product alone.
+    #[arg(long, default_value_t = ltcguide::guiding::defensive::DEFAULT_RADIANCE_SHARE)]
+    pub radiance_share: f32,
 }
 
 /// Bad input (scene, image, arguments): exit code 2, like clap's own errors.

@@ -145,6 +145,7 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
     }
     ltcguide::guiding::adrrs::check_window(args.adrrs_window)?;
     ltcguide::render::check_guide_support(args.method, args.guided.guide_support)?;
+    ltcguide::guiding::defensive::check_radiance_share(args.product.radiance_share)?;
     if let Some(a) = args.bsdf_fraction {
         ltcguide::render::check_bsdf_fraction(a)?;
         if a == 0.0 {
@@ -202,6 +203,7 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
+        radiance_share: args.product.radiance_share,
         guide_support: args.guided.guide_support,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,

@@ -106,6 +106,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     if let Some(lambda) = args.bsdf_fraction_l2 {
         ltcguide::guiding::adam::check_l2(lambda)?;
     }
+    ltcguide::guiding::defensive::check_radiance_share(args.product.radiance_share)?;
     let scene = load(&args.scene)?;
     let reference = read_valid_image(&args.reference)?;
     let opts = ltcguide::experiment::compare::CompareOptions {
@@ -123,6 +124,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
+        radiance_share: args.product.radiance_share,
         guide_support: args.guided.guide_support,
         bsdf_fraction_l2: args.bsdf_fraction_l2,
         side_by_side: args.side_by_side,

@@ -84,6 +84,12 @@ pub fn run_ablation(
             },
             // ... and its own lobe at every vertex.
             pixel_reuse: !paper,
+            // ... and the product's samples alone.
+            radiance_share: if paper {
+                0.0
+            } else {
+                crate::guiding::defensive::DEFAULT_RADIANCE_SHARE
+            },
             use_plan,
             ..Default::default()
         }

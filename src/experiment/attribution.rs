@@ -75,6 +75,10 @@ pub struct AttributeArgs {
     /// fractions (as for render; default 0.01).
     #[arg(long)]
     pub bsdf_fraction_l2: Option<f64>,
+    /// The product's share of guided samples drawn from radiance weights
+    /// (as for render; 0: the paper's product alone).
+    #[arg(long, default_value_t = crate::guiding::defensive::DEFAULT_RADIANCE_SHARE)]
+    pub radiance_share: f32,
     /// What the seconds factors measure: each render's own CPU seconds per
     /// thread (the two renders of a pair run at once, and the scheduler
     /// does not share the cores between them evenly: `src/cpu_clock.rs`),
@@ -100,6 +104,7 @@ impl AttributeArgs {
             other_roulette: self.other_rr,
             exact_integrals: !self.no_exact,
             bsdf_fraction_l2: self.bsdf_fraction_l2,
+            radiance_share: self.radiance_share,
             clock: self.clock,
             progress: true,
         }
@@ -124,6 +129,8 @@ pub struct AttributionOptions {
     pub exact_integrals: bool,
     /// λ of the learned BSDF fraction's L2 term (`None`: Adam's default).
     pub bsdf_fraction_l2: Option<f64>,
+    /// The product's radiance share (`guiding::defensive`).
+    pub radiance_share: f32,
     /// The clock of the seconds factors. With several threads per render,
     /// the CPU clock counts the renders' serial phases at 1/threads.
     pub clock: TimeBase,
@@ -357,6 +364,7 @@ pub fn check(opts: &AttributionOptions) -> Result<(), String> {
         budget: Budget::Spp(opts.spp),
         path: opts.path,
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        radiance_share: opts.radiance_share,
         ..Default::default()
     }
     .check()
@@ -376,6 +384,7 @@ pub fn run_attribution(
         path: opts.path,
         use_plan: false,
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        radiance_share: opts.radiance_share,
         time_base: opts.clock,
         ..Default::default()
     };

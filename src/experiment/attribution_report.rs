@@ -19,12 +19,14 @@ pub(super) fn markdown(
     let _ = writeln!(
         md,
         "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
-         NEE {}{}, every part of the method forced on, seconds {}. < 1 favours the product.\n",
+         NEE {}{}, every part of the method forced on, the product's radiance share {}, seconds {}. \
+         < 1 favours the product.\n",
         scene.name,
         opts.spp,
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
         super::compare::l2_phrase(opts.bsdf_fraction_l2),
+        opts.radiance_share,
         match opts.clock {
             TimeBase::Cpu => "of each render's own CPU time per thread",
             TimeBase::Wall => "of wall-clock time",

@@ -64,6 +64,8 @@ pub struct CompareOptions {
     /// Product guiding's reuse of a first-vertex lobe across a pixel's
     /// paths and its neighbours'.
     pub pixel_reuse: bool,
+    /// Product guiding's share of radiance samples (`guiding::defensive`).
+    pub radiance_share: f32,
     /// Guided methods: λ of the learned BSDF fraction's L2 term (`None`:
     /// Adam's default, Müller's 0.01).
     pub bsdf_fraction_l2: Option<f64>,
@@ -404,6 +406,7 @@ pub fn run_options(
         cosine_lobes: opts.cosine_lobes,
         product_vertices: opts.product_vertices,
         pixel_reuse: opts.pixel_reuse,
+        radiance_share: opts.radiance_share,
         guide_support: support_for(method, opts),
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
         use_plan: opts.use_plan,
@@ -513,7 +516,8 @@ fn summary_markdown(
                     ", product weights at {}, cosine lobes: {}",
                     crate::guiding::product::product_weights_scope(
                         opts.product_vertices,
-                        opts.pixel_reuse
+                        opts.pixel_reuse,
+                        opts.radiance_share
                     ),
                     format!("{:?}", opts.cosine_lobes).to_lowercase()
                 )

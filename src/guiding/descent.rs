@@ -120,7 +120,7 @@ pub struct Descended {
 }
 
 /// Largest f32 below 1: a rescaled sample must stay in [0, 1).
-const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+pub(crate) const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The weights with negatives (approximation noise) clamped to 0, and
 /// their total: NaN when a weight is not finite, ∞ when the sum overflows.

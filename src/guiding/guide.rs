@@ -3,6 +3,7 @@
 //! function (radiance for PPG, radiance × LTC integral for product
 //! guiding), mixed with BSDF sampling by the leaf's learned α.
 
+use super::defensive;
 use super::descent::{self, ChildWeights};
 use super::quadtree::QuadTree;
 use super::record::{Record, RecordBuffer};
@@ -43,6 +44,12 @@ pub trait WeightModel: Sync {
 
     /// What the weights are, for reports.
     fn name(&self) -> &'static str;
+
+    /// Share of the guided samples drawn from the radiance descent where the
+    /// weights are not the radiance already ([`super::defensive`]).
+    fn radiance_share(&self) -> f32 {
+        0.0
+    }
 
     /// The same guide with cheaper child weights (product → radiance), for
     /// runs that measure whether the expensive weights pay. `None`: nothing
@@ -131,6 +138,8 @@ pub struct SdVertex<'a, W: ChildWeights> {
     alpha: f32,
     /// Computed where roulette reads it; possibly non-finite or zero.
     adjoint: Option<f32>,
+    /// The model's [`WeightModel::radiance_share`].
+    radiance_share: f32,
 }
 
 impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
@@ -139,11 +148,11 @@ impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
     }
 
     fn sample(&mut self, u: Vec2) -> Option<(Vec3, f32)> {
-        descent::sample_direction(self.tree, &mut self.weights, u)
+        defensive::sample_direction(self.tree, &mut self.weights, self.radiance_share, u)
     }
 
     fn pdf(&mut self, dir: Vec3) -> f32 {
-        descent::pdf_direction(self.tree, &mut self.weights, dir)
+        defensive::pdf_direction(self.tree, &mut self.weights, self.radiance_share, dir)
     }
 
     fn adjoint_estimate(&self) -> Option<f32> {
@@ -211,6 +220,7 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
                 .fixed_alpha
                 .unwrap_or_else(|| self.tree.bsdf_fraction(id)),
             adjoint,
+            radiance_share: self.model.radiance_share(),
         })
     }
 

@@ -47,6 +47,7 @@ pub mod adrrs;
 pub mod aov;
 pub mod build;
 pub mod combine;
+pub mod defensive;
 pub mod descent;
 pub mod fallback_image;
 pub mod guide;

@@ -36,6 +36,10 @@ pub struct ProductModel<'t> {
     /// they hit the same lobe (see [`ProductCache`]); off: every vertex
     /// computes its own (the paper's setting).
     pub reuse_in_pixel: bool,
+    /// Share β of the guided samples at product-weighted vertices drawn
+    /// from the radiance descent ([`super::defensive`]); 0: the paper's
+    /// product alone.
+    pub radiance_share: f32,
 }
 
 /// Product weights at the first vertex of each path only, by default.
@@ -57,10 +61,14 @@ pub struct ProductModel<'t> {
 /// children by the BSDF as well as the radiance changes little.
 pub const DEFAULT_PRODUCT_VERTICES: u32 = 1;
 
-/// Where product weights apply for a `product_vertices` setting, and
-/// whether first-vertex product lobes are reused across neighbouring
-/// paths, for plan lines and reports.
-pub fn product_weights_scope(product_vertices: u32, pixel_reuse: bool) -> String {
+/// Where product weights apply for a `product_vertices` setting, whether
+/// first-vertex product lobes are reused across neighbouring paths, and
+/// the guided samples' radiance share there, for plan lines and reports.
+pub fn product_weights_scope(
+    product_vertices: u32,
+    pixel_reuse: bool,
+    radiance_share: f32,
+) -> String {
     let scope = match product_vertices {
         0 => "every vertex".into(),
         1 => "the first vertex of each path, radiance weights deeper".into(),
@@ -71,7 +79,12 @@ pub fn product_weights_scope(product_vertices: u32, pixel_reuse: bool) -> String
     } else {
         "no lobe reuse across paths"
     };
-    format!("{scope}; {reuse}")
+    let share = if radiance_share > 0.0 {
+        format!("{radiance_share} of their guided samples from radiance weights")
+    } else {
+        "product samples alone".into()
+    };
+    format!("{scope}; {share}; {reuse}")
 }
 
 /// The child weights at a vertex whose lobes are all cosines (diffuse
@@ -370,6 +383,10 @@ impl WeightModel for ProductModel<'_> {
                 reflected_radiance_estimate(ctx.frame, ctx.wo_local, albedo, root_radiance)
             }
         }
+    }
+
+    fn radiance_share(&self) -> f32 {
+        self.radiance_share
     }
 
     fn name(&self) -> &'static str {

@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 use ltcguide::bsdf::{ConductorFresnel, Material, MaterialKind};
 use ltcguide::directional::Cell;
-use ltcguide::guiding::descent;
+use ltcguide::guiding::descent::{self, ChildWeights};
 use ltcguide::guiding::guide::WeightModel;
 use ltcguide::guiding::product::{
     CosineLobes, ProductCache, ProductModel, ProductWeights, guiding_ltc_options,
@@ -30,6 +30,7 @@ pub fn paper_model(table: &LtcTable, kernel: ProductKernel) -> ProductModel<'_> 
         cosine_lobes: CosineLobes::Product,
         product_vertices: 0,
         reuse_in_pixel: false,
+        radiance_share: 0.0,
     }
 }
 
@@ -78,7 +79,7 @@ pub fn random_tree(rng: &mut Rng, n: usize) -> QuadTree {
 /// bins it overlaps in proportion to the overlap area.
 pub fn exact_bin_probabilities(
     tree: &QuadTree,
-    w: &mut ProductWeights,
+    w: &mut impl ChildWeights,
     rx: usize,
     ry: usize,
 ) -> Vec<f64> {
@@ -89,7 +90,7 @@ pub fn exact_bin_probabilities(
 /// (in its own coordinates), unnormalised: they sum to P(zoom).
 pub fn exact_bin_probabilities_in(
     tree: &QuadTree,
-    w: &mut ProductWeights,
+    w: &mut impl ChildWeights,
     rx: usize,
     ry: usize,
     zoom: Cell,
