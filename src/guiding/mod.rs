@@ -6,6 +6,8 @@
 //! - [`build`]: learning the next sampling tree from recorded flux;
 //! - [`descent`]: the one descent shared by sampling and pdf, parameterised
 //!   by a [`descent::ChildWeights`] (radiance or product);
+//! - [`defensive`]: the product's guided samples mixed with a share drawn
+//!   from the radiance descent of the same tree;
 //! - [`sdtree`]: the spatial binary tree whose leaves own quadtree pairs;
 //! - [`record`]: per-thread record buffers and their deterministic merge;
 //! - [`adam`]: the learned BSDF-sampling fraction;
@@ -30,9 +32,10 @@
 //!     let id = tree.lookup(x); let leaf = tree.leaf(id);
 //!     let alpha = tree.bsdf_fraction(id);          // α ∈ [α_min, 1]
 //!     // sample: with prob. α the BSDF, else
-//!     //   descent::sample_direction(&leaf.sampling, &mut weights, u)
+//!     //   defensive::sample_direction(&leaf.sampling, &mut weights, β, u)
+//!     //   (β = 0, or radiance weights: descent::sample_direction)
 //!     //   (None ⇒ guide unavailable: use α = 1, record guided = false)
-//!     // p_mix = α·p_bsdf + (1−α)·descent::pdf_direction(&leaf.sampling, &mut weights, ω_i)
+//!     // p_mix = α·p_bsdf + (1−α)·defensive::pdf_direction(&leaf.sampling, &mut weights, β, ω_i)
 //!     // after the path: buffer.push(Record { radiance: L_i/p_mix, .. })
 //!     // after the pass (training only):
 //!     //   record_pass(&mut tree, &buffers);
