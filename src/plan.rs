@@ -152,7 +152,7 @@ pub fn plan(
     cosine_lobes: CosineLobes,
     product_vertices: u32,
     pixel_reuse: bool,
-    radiance_share: f32,
+    radiance_share: crate::guiding::defensive::RadianceShare,
 ) -> ScenePlan {
     let inv = lobe_inventory(scene);
     let mut reasons = Vec::new();

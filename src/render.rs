@@ -91,8 +91,9 @@ pub struct RenderOptions {
     /// (`guiding::pixel_reuse`); off: the paper's lobe per vertex.
     pub pixel_reuse: bool,
     /// Product guiding: the share β of guided samples at product-weighted
-    /// vertices drawn from the radiance descent (`guiding::defensive`).
-    pub radiance_share: f32,
+    /// vertices drawn from the radiance descent (`guiding::defensive`),
+    /// fixed or learned per leaf (`guiding::share_learning`).
+    pub radiance_share: crate::guiding::defensive::RadianceShare,
     /// Guided methods: the radiance weights over the sphere or on a
     /// reflecting surface's hemisphere.
     pub guide_support: GuideSupport,
@@ -133,7 +134,7 @@ impl Default for RenderOptions {
             cosine_lobes: CosineLobes::default(),
             product_vertices: crate::guiding::product::DEFAULT_PRODUCT_VERTICES,
             pixel_reuse: true,
-            radiance_share: crate::guiding::defensive::DEFAULT_RADIANCE_SHARE,
+            radiance_share: crate::guiding::defensive::RadianceShare::default(),
             guide_support: GuideSupport::Sphere,
             use_plan: true,
             spatial_threshold: None,
@@ -164,7 +165,7 @@ impl RenderOptions {
             crate::guiding::adam::check_l2(l)?;
         }
         check_guide_support(self.method, self.guide_support)?;
-        crate::guiding::defensive::check_radiance_share(self.radiance_share)?;
+        self.radiance_share.check()?;
         SnapshotPlan::check_times(&self.snapshot_times)
     }
 }
@@ -397,7 +398,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
                         cosine_lobes: opts.cosine_lobes,
                         product_vertices: opts.product_vertices,
                         reuse_in_pixel: opts.pixel_reuse,
-                        radiance_share: opts.radiance_share,
+                        radiance_share: opts.radiance_share.value,
                     };
                     guided(render_guided(
                         scene,
@@ -433,7 +434,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
             .map_or(0, |g| g.records_rejected_non_finite),
         tree_records_negative: guiding.as_ref().map_or(0, |g| g.records_rejected_negative),
         tree_records_zero_pdf: guiding.as_ref().map_or(0, |g| g.records_rejected_zero_pdf),
-        optimizer_rejected: guiding.as_ref().map_or(0, |g| g.adam_rejected),
+        optimizer_rejected: guiding.as_ref().map_or(0, |g| {
+            g.adam_rejected + g.learned_shares.rejected_non_finite
+        }),
         adrrs_invalid_estimate: counters.adrrs.invalid_estimate,
         iterations_dropped_nonfinite_variance: guiding
             .as_ref()

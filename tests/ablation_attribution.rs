@@ -95,7 +95,7 @@ fn attribution_pairs_differ_only_in_the_method() {
         other_roulette: RouletteMode::Classic,
         exact_integrals,
         bsdf_fraction_l2: None,
-        radiance_share: 0.3,
+        radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(0.3),
         clock: TimeBase::Cpu,
         progress: false,
     };
@@ -294,7 +294,7 @@ fn attribution_refuses_options_it_cannot_run() {
         other_roulette: RouletteMode::Classic,
         exact_integrals: false,
         bsdf_fraction_l2: None,
-        radiance_share: 0.3,
+        radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(0.3),
         clock: TimeBase::Wall,
         progress: false,
     };
@@ -328,7 +328,7 @@ fn attribution_refuses_options_it_cannot_run() {
             ..good.clone()
         },
         AttributionOptions {
-            radiance_share: 1.0,
+            radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(1.0),
             ..good.clone()
         },
         AttributionOptions {

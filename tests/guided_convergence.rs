@@ -11,7 +11,9 @@ mod common;
 
 use common::*;
 use ltcguide::film::compare::compare_blocks;
+use ltcguide::guiding::defensive::RadianceShare;
 use ltcguide::guiding::product::CosineLobes;
+use ltcguide::guiding::share_learning::ShareLearning;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::render::{Method, RenderOptions, RenderResult, render};
 use ltcguide::scene::load_scene;
@@ -423,10 +425,12 @@ fn assert_agrees_with_pt(label: &str, guided: &RenderResult) {
     assert_blocks_agree(label, &cmp);
 }
 
-/// A product run whose guided samples come half from radiance weights
-/// (`guiding::defensive`), and one from the product alone, both converge
-/// to path tracing's image: the mixture's pdf is the one its samples have.
-/// The plan is off, so product weights stay on throughout.
+/// Product runs whose guided samples come partly from radiance weights
+/// (`guiding::defensive`), one from the product alone, and one whose share
+/// each leaf learns (`guiding::share_learning`), all converge to path
+/// tracing's image: the mixture's pdf is the one its samples have, and the
+/// share moving between passes changes no expectation. The plan is off, so
+/// product weights stay on throughout.
 #[test]
 fn a_radiance_share_changes_no_expectation() {
     let scene = own_scene();
@@ -434,7 +438,22 @@ fn a_radiance_share_changes_no_expectation() {
     // estimates heavy-tailed at 48 spp (mean z² 2.4 at β = 0, the paper's
     // product), which says nothing about the expectation.
     let path = short_paths(true, RouletteMode::Classic);
-    for share in [0.0, 0.5, 0.9] {
+    let shares = [
+        RadianceShare::fixed(0.0),
+        RadianceShare::fixed(0.5),
+        RadianceShare::fixed(0.9),
+        RadianceShare {
+            value: 0.3,
+            learned: true,
+            learning: ShareLearning::VarianceGrid,
+        },
+        RadianceShare {
+            value: 0.3,
+            learned: true,
+            learning: ShareLearning::Variance,
+        },
+    ];
+    for share in shares {
         let opts = RenderOptions {
             use_plan: false,
             radiance_share: share,
@@ -443,6 +462,10 @@ fn a_radiance_share_changes_no_expectation() {
         let product = render(&scene, &opts).unwrap();
         assert_is_guided("glossy-gap", Method::Product, &product);
         assert_agrees_with_pt(&format!("product, radiance share {share}"), &product);
+        if share.learned {
+            let learned = &product.stats.guiding.as_ref().unwrap().learned_shares;
+            assert!(learned.steps > 0, "{learned:?}");
+        }
     }
 }
 

@@ -193,6 +193,8 @@ fn record_at(p: Vec3, d: Vec3, value: f32, seed: u64) -> Record {
         bsdf_pdf: 0.3,
         guide_pdf: 0.1,
         alpha: 0.5,
+        radiance_pdf: 0.0,
+        radiance_share: 0.0,
         throughput_pdf: 0.2,
         guided: true,
         seed,
@@ -413,6 +415,8 @@ fn sdtree_learns_a_space_varying_field_end_to_end() {
                 bsdf_pdf: pb,
                 guide_pdf: pg,
                 alpha,
+                radiance_pdf: 0.0,
+                radiance_share: 0.0,
                 throughput_pdf: p_mix,
                 guided,
                 seed,
@@ -576,4 +580,48 @@ fn adam_steps_pass_by_pass_whatever_the_buffer_order() {
         r.pass = 0;
     }
     assert_ne!(reference, learn(vec![shuffled]));
+}
+
+/// Where the tree learns the product's radiance share, the records of
+/// vertices that mixed step it (towards the radiance descent when that was
+/// the likelier one for the light found), under either loss; the records
+/// of vertices that did not mix step only the BSDF fraction.
+#[test]
+fn a_learned_share_steps_on_the_records_that_mixed() {
+    use ltcguide::guiding::share_learning::ShareLearning;
+    for loss in [ShareLearning::Kl, ShareLearning::Variance] {
+        let config = SdTreeConfig {
+            learned_radiance_share: Some(0.3),
+            share_learning: loss,
+            ..SdTreeConfig::default()
+        };
+        let mut tree = SdTree::new(Vec3::ZERO, Vec3::ONE, config);
+        let start = tree.learned_radiance_share(0).unwrap();
+        assert!((start - 0.3).abs() < 1e-6);
+        let p = Vec3::splat(0.5);
+        let mut b = RecordBuffer::default();
+        for seed in 0..300u64 {
+            // Product pdf 0.1, radiance pdf 0.5 at the direction sampled.
+            let (share, radiance_pdf) = if seed % 3 == 0 {
+                (0.0, 0.0)
+            } else {
+                (0.3, 0.5)
+            };
+            b.push(Record {
+                guide_pdf: 0.7 * 0.1 + 0.3 * 0.5,
+                radiance_pdf,
+                radiance_share: share,
+                ..record_at(p, Vec3::X, 1.0, seed)
+            });
+        }
+        let stats = record_pass(&mut tree, &[b]);
+        assert_eq!(stats.adam.steps, 300, "{loss:?}");
+        assert_eq!(stats.share.steps, 200, "{loss:?}");
+        assert_eq!(tree.leaves()[0].share.steps(), 200);
+        let learned = tree.learned_radiance_share(0).unwrap();
+        assert!(learned > start + 0.1, "{loss:?}: {learned}");
+    }
+    // Without learning the tree reports no share.
+    let tree = SdTree::new(Vec3::ZERO, Vec3::ONE, SdTreeConfig::default());
+    assert_eq!(tree.learned_radiance_share(0), None);
 }

@@ -128,23 +128,41 @@ fn product_with_a_radiance_share_matches_its_pdf_chi2() {
 }
 
 /// The guide's vertex under product weights samples and evaluates the
-/// mixture with the model's share: the pdf it returns for a sample is its
-/// pdf of that direction, and it is the mixture of the two descents'.
+/// mixture with the model's share, or the leaf's when the tree learns it:
+/// the pdf it returns for a sample is its pdf of that direction, and it is
+/// the mixture of the two descents' at that share. The vertex reports a
+/// learned share for the records, and only then.
 #[test]
-fn the_guide_vertex_mixes_with_the_models_share() {
+fn the_guide_vertex_mixes_with_the_models_or_the_leafs_share() {
     use ltcguide::guiding::guide::SdGuide;
     use ltcguide::guiding::sdtree::{SdTree, SdTreeConfig};
+    use ltcguide::guiding::share_learning::LearnedShare;
     use ltcguide::integrator::guide::{Guide, GuideVertex};
     use ltcguide::integrator::stats::RenderCounters;
     let table = default_ltc_table().unwrap();
     let mut rng = Rng::new(52, 1);
-    let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::ONE, SdTreeConfig::default());
     let quadtree = random_tree(&mut rng, 300);
-    tree.leaves_mut()[0].sampling = quadtree.clone();
     let frame = Frame::from_normal(Vec3::new(0.2, -0.3, 0.93).normalize());
     let bsdf = material(0.05, false).at(Vec2::ZERO);
     let wo = wo_at(40.0, 1.0);
-    for share in [0.0f32, 0.4] {
+    // (the model's share, the tree's learned share, the share expected)
+    let cases = [
+        (0.0f32, None, 0.0f32),
+        (0.4, None, 0.4),
+        (0.4, Some(0.7f32), 0.7),
+        // A model without a share learns none, whatever the tree holds.
+        (0.0, Some(0.7), 0.0),
+    ];
+    for (share, learned, expected_share) in cases {
+        let config = SdTreeConfig {
+            learned_radiance_share: learned.map(|_| 0.4),
+            ..SdTreeConfig::default()
+        };
+        let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::ONE, config);
+        tree.leaves_mut()[0].sampling = quadtree.clone();
+        if let Some(l) = learned {
+            tree.leaves_mut()[0].share = LearnedShare::starting_at(l);
+        }
         let model = ltcguide::guiding::product::ProductModel {
             radiance_share: share,
             ..render_options_model(table)
@@ -159,6 +177,16 @@ fn the_guide_vertex_mixes_with_the_models_share() {
         let (mut cache, mut counters) = (ProductCache::default(), RenderCounters::default());
         let at = guide.locate(ctx.p);
         let mut v = guide.vertex(&ctx, at, &mut cache, &mut counters).unwrap();
+        let reported = if learned.is_some() {
+            expected_share
+        } else {
+            0.0
+        };
+        assert!(
+            (v.learned_share() - reported).abs() < 1e-6,
+            "{share} {learned:?}: {}",
+            v.learned_share()
+        );
         let mut wcache = ProductCache::default();
         let mut w = weights_at(&model, frame.n, wo, &bsdf, &mut wcache).unwrap();
         assert!(!w.is_radiance());
@@ -168,17 +196,17 @@ fn the_guide_vertex_mixes_with_the_models_share() {
             assert_eq!(v.pdf(dir), pdf);
             let product = descent::pdf_direction(&quadtree, &mut w, dir);
             let radiance = descent::pdf_direction(&quadtree, &mut descent::RadianceWeights, dir);
-            let expected = (1.0 - share) * product + share * radiance;
+            let expected = (1.0 - expected_share) * product + expected_share * radiance;
             assert!(
                 (pdf - expected).abs() <= 1e-5 * expected,
-                "{pdf} against {expected}"
+                "{share} {learned:?}: {pdf} against {expected}"
             );
             mixed += (pdf != product) as u32;
         }
         assert_eq!(
             mixed > 0,
-            share > 0.0,
-            "share {share}: {mixed} of 300 mixed"
+            expected_share > 0.0,
+            "share {share}, learned {learned:?}: {mixed} of 300 mixed"
         );
     }
 }

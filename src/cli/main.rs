@@ -144,6 +144,26 @@ pub struct ProductArgs {
     /// 0: the paper's product alone.
     #[arg(long, default_value_t = ltcguide::guiding::defensive::DEFAULT_RADIANCE_SHARE)]
     pub radiance_share: f32,
+    /// Product guiding: learn the radiance share per spatial leaf, starting
+    /// from --radiance-share, by the BSDF fraction's Adam on the same KL
+    /// loss (`true` or `false`).
+    #[arg(long, default_value_t = ltcguide::guiding::defensive::DEFAULT_SHARE_LEARNING, action = clap::ArgAction::Set)]
+    pub learn_radiance_share: bool,
+    /// Product guiding: what a learned radiance share minimises, the KL
+    /// divergence to the integrand (as the BSDF fraction) or the
+    /// estimator's variance.
+    #[arg(long, value_enum, default_value_t = ltcguide::guiding::share_learning::ShareLearning::default())]
+    pub radiance_share_learning: ltcguide::guiding::share_learning::ShareLearning,
+}
+
+impl ProductArgs {
+    pub fn radiance_share(&self) -> ltcguide::guiding::defensive::RadianceShare {
+        ltcguide::guiding::defensive::RadianceShare {
+            value: self.radiance_share,
+            learned: self.learn_radiance_share,
+            learning: self.radiance_share_learning,
+        }
+    }
 }
 
 /// Bad input (scene, image, arguments): exit code 2, like clap's own errors.

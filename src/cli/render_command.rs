@@ -203,7 +203,7 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
-        radiance_share: args.product.radiance_share,
+        radiance_share: args.product.radiance_share(),
         guide_support: args.guided.guide_support,
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
@@ -287,6 +287,17 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         args.out.display(),
         png.display()
     );
+    if let Some(learned) = s
+        .guiding
+        .as_ref()
+        .map(|g| g.learned_shares)
+        .filter(|l| l.leaves > 0)
+    {
+        eprintln!(
+            "learned radiance share: {:.3} weighted by steps over {} leaves (p10 {:.3}, median {:.3}, p90 {:.3})",
+            learned.mean, learned.leaves, learned.p10, learned.median, learned.p90
+        );
+    }
     let guarded = s.guards.total();
     if guarded > 0 {
         println!("guards: {}", s.guards.describe());

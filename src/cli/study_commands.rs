@@ -124,7 +124,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,
         pixel_reuse: !args.product.no_pixel_reuse,
-        radiance_share: args.product.radiance_share,
+        radiance_share: args.product.radiance_share(),
         guide_support: args.guided.guide_support,
         bsdf_fraction_l2: args.bsdf_fraction_l2,
         side_by_side: args.side_by_side,

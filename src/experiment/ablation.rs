@@ -86,9 +86,9 @@ pub fn run_ablation(
             pixel_reuse: !paper,
             // ... and the product's samples alone.
             radiance_share: if paper {
-                0.0
+                crate::guiding::defensive::RadianceShare::fixed(0.0)
             } else {
-                crate::guiding::defensive::DEFAULT_RADIANCE_SHARE
+                crate::guiding::defensive::RadianceShare::default()
             },
             use_plan,
             ..Default::default()

@@ -79,6 +79,13 @@ pub struct AttributeArgs {
     /// (as for render; 0: the paper's product alone).
     #[arg(long, default_value_t = crate::guiding::defensive::DEFAULT_RADIANCE_SHARE)]
     pub radiance_share: f32,
+    /// Learn the product's radiance share per spatial leaf, starting from
+    /// --radiance-share (as for render).
+    #[arg(long, default_value_t = crate::guiding::defensive::DEFAULT_SHARE_LEARNING, action = clap::ArgAction::Set)]
+    pub learn_radiance_share: bool,
+    /// What a learned radiance share minimises (as for render).
+    #[arg(long, value_enum, default_value_t = crate::guiding::share_learning::ShareLearning::default())]
+    pub radiance_share_learning: crate::guiding::share_learning::ShareLearning,
     /// What the seconds factors measure: each render's own CPU seconds per
     /// thread (the two renders of a pair run at once, and the scheduler
     /// does not share the cores between them evenly: `src/cpu_clock.rs`),
@@ -104,7 +111,11 @@ impl AttributeArgs {
             other_roulette: self.other_rr,
             exact_integrals: !self.no_exact,
             bsdf_fraction_l2: self.bsdf_fraction_l2,
-            radiance_share: self.radiance_share,
+            radiance_share: crate::guiding::defensive::RadianceShare {
+                value: self.radiance_share,
+                learned: self.learn_radiance_share,
+                learning: self.radiance_share_learning,
+            },
             clock: self.clock,
             progress: true,
         }
@@ -130,7 +141,7 @@ pub struct AttributionOptions {
     /// λ of the learned BSDF fraction's L2 term (`None`: Adam's default).
     pub bsdf_fraction_l2: Option<f64>,
     /// The product's radiance share (`guiding::defensive`).
-    pub radiance_share: f32,
+    pub radiance_share: crate::guiding::defensive::RadianceShare,
     /// The clock of the seconds factors. With several threads per render,
     /// the CPU clock counts the renders' serial phases at 1/threads.
     pub clock: TimeBase,

@@ -65,7 +65,7 @@ pub struct CompareOptions {
     /// paths and its neighbours'.
     pub pixel_reuse: bool,
     /// Product guiding's share of radiance samples (`guiding::defensive`).
-    pub radiance_share: f32,
+    pub radiance_share: crate::guiding::defensive::RadianceShare,
     /// Guided methods: λ of the learned BSDF fraction's L2 term (`None`:
     /// Adam's default, Müller's 0.01).
     pub bsdf_fraction_l2: Option<f64>,

@@ -110,6 +110,71 @@ impl AdamStats {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NonFiniteGradient;
 
+/// Adam's moment estimates for one scalar parameter, shared by the
+/// learned fractions (this BSDF fraction and the radiance share of
+/// `super::share_learning`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdamMoments {
+    m: f64,
+    v: f64,
+    t: u64,
+    /// β₁ᵗ and β₂ᵗ for the bias corrections, as running products (a powf
+    /// per recorded sample is measurable).
+    beta1_t: f64,
+    beta2_t: f64,
+}
+
+impl Default for AdamMoments {
+    fn default() -> Self {
+        AdamMoments {
+            m: 0.0,
+            v: 0.0,
+            t: 0,
+            beta1_t: 1.0,
+            beta2_t: 1.0,
+        }
+    }
+}
+
+impl AdamMoments {
+    pub fn steps(&self) -> u64 {
+        self.t
+    }
+
+    /// One Adam step from `theta` on the full gradient `g` (regulariser
+    /// included): the new θ, clamped to ±θ_max, or nothing changed when
+    /// any value turns non-finite (counted in `stats`).
+    pub fn step(
+        &mut self,
+        cfg: &AdamConfig,
+        theta: f64,
+        g: f64,
+        stats: &mut AdamStats,
+    ) -> Result<f64, NonFiniteGradient> {
+        let g2 = g * g;
+        if !(g.is_finite() && g2.is_finite()) {
+            stats.rejected_non_finite += 1;
+            return Err(NonFiniteGradient);
+        }
+        let m = cfg.beta1 * self.m + (1.0 - cfg.beta1) * g;
+        let v = cfg.beta2 * self.v + (1.0 - cfg.beta2) * g2;
+        let (beta1_t, beta2_t) = (self.beta1_t * cfg.beta1, self.beta2_t * cfg.beta2);
+        let m_hat = m / (1.0 - beta1_t);
+        let v_hat = v / (1.0 - beta2_t);
+        let next = theta - cfg.learning_rate * m_hat / (v_hat.sqrt() + cfg.epsilon);
+        if !(next.is_finite() && m.is_finite() && v.is_finite()) {
+            stats.rejected_non_finite += 1;
+            return Err(NonFiniteGradient);
+        }
+        (self.beta1_t, self.beta2_t) = (beta1_t, beta2_t);
+        self.m = m;
+        self.v = v;
+        self.t += 1;
+        stats.steps += 1;
+        Ok(next.clamp(-cfg.theta_max, cfg.theta_max))
+    }
+}
+
 /// Adam state of one spatial leaf. θ starts at 0 (α = ½).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfFraction {
@@ -117,13 +182,7 @@ pub struct BsdfFraction {
     /// sigmoid(θ), kept with θ: every guided vertex reads α, and an f64
     /// exponential per vertex is measurable.
     sigmoid_theta: f32,
-    m: f64,
-    v: f64,
-    t: u64,
-    /// β₁ᵗ and β₂ᵗ for the bias corrections, as running products (a powf
-    /// per recorded sample is measurable too).
-    beta1_t: f64,
-    beta2_t: f64,
+    moments: AdamMoments,
     /// Σ product and count over every sample offered: product = F/p_mix is
     /// an unbiased estimate of ∫F whatever the mixture, so the running mean
     /// estimates the normaliser.
@@ -138,13 +197,13 @@ impl Default for BsdfFraction {
 }
 
 #[inline]
-fn sigmoid(x: f64) -> f64 {
+pub(crate) fn sigmoid(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
 }
 
 /// α itself needs only f32 (θ ∈ [−20, 20] keeps it normal).
 #[inline]
-fn sigmoid_f32(x: f32) -> f32 {
+pub(crate) fn sigmoid_f32(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())
 }
 
@@ -187,11 +246,7 @@ impl BsdfFraction {
         BsdfFraction {
             theta,
             sigmoid_theta: sigmoid_f32(theta as f32),
-            m: 0.0,
-            v: 0.0,
-            t: 0,
-            beta1_t: 1.0,
-            beta2_t: 1.0,
+            moments: AdamMoments::default(),
             product_sum: 0.0,
             product_count: 0,
         }
@@ -202,7 +257,13 @@ impl BsdfFraction {
     }
 
     pub fn steps(&self) -> u64 {
-        self.t
+        self.moments.steps()
+    }
+
+    /// The running estimate of ∫F the gradients are divided by (see the
+    /// module docs), once a sample has been offered.
+    pub fn product_mean(&self) -> Option<f64> {
+        (self.product_count > 0).then(|| self.product_sum / self.product_count as f64)
     }
 
     /// The BSDF-sampling fraction the renderer should use.
@@ -255,29 +316,8 @@ impl BsdfFraction {
         stats: &mut AdamStats,
     ) -> Result<(), NonFiniteGradient> {
         let g = gradient + cfg.l2 * self.theta;
-        let g2 = g * g;
-        if !(g.is_finite() && g2.is_finite()) {
-            stats.rejected_non_finite += 1;
-            return Err(NonFiniteGradient);
-        }
-        let t = self.t + 1;
-        let m = cfg.beta1 * self.m + (1.0 - cfg.beta1) * g;
-        let v = cfg.beta2 * self.v + (1.0 - cfg.beta2) * g2;
-        let (beta1_t, beta2_t) = (self.beta1_t * cfg.beta1, self.beta2_t * cfg.beta2);
-        let m_hat = m / (1.0 - beta1_t);
-        let v_hat = v / (1.0 - beta2_t);
-        let theta = self.theta - cfg.learning_rate * m_hat / (v_hat.sqrt() + cfg.epsilon);
-        if !(theta.is_finite() && m.is_finite() && v.is_finite()) {
-            stats.rejected_non_finite += 1;
-            return Err(NonFiniteGradient);
-        }
-        self.theta = theta.clamp(-cfg.theta_max, cfg.theta_max);
+        self.theta = self.moments.step(cfg, self.theta, g, stats)?;
         self.sigmoid_theta = sigmoid_f32(self.theta as f32);
-        (self.beta1_t, self.beta2_t) = (beta1_t, beta2_t);
-        self.m = m;
-        self.v = v;
-        self.t = t;
-        stats.steps += 1;
         Ok(())
     }
 }

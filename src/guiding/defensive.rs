@@ -51,6 +51,76 @@ use glam::{Vec2, Vec3};
 /// seeds its relative variance per sample went 1.077 → 1.033.
 pub const DEFAULT_RADIANCE_SHARE: f32 = 0.3;
 
+/// Whether product guiding learns its radiance share per spatial leaf by
+/// default (`super::share_learning`).
+pub const DEFAULT_SHARE_LEARNING: bool = false;
+
+/// Product guiding's radiance share setting: a fixed β, or β learned per
+/// leaf starting from it. A β of 0 is the paper's product alone and
+/// learns nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadianceShare {
+    pub value: f32,
+    pub learned: bool,
+    /// What a learned share minimises.
+    pub learning: super::share_learning::ShareLearning,
+}
+
+impl Default for RadianceShare {
+    fn default() -> Self {
+        RadianceShare {
+            value: DEFAULT_RADIANCE_SHARE,
+            learned: DEFAULT_SHARE_LEARNING,
+            learning: Default::default(),
+        }
+    }
+}
+
+/// "0.3", or "0.3, learned per leaf", for reports.
+impl std::fmt::Display for RadianceShare {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.learned_start() {
+            Some(start) => write!(f, "{start}, learned per leaf ({:?})", self.learning),
+            None => write!(f, "{}", self.value),
+        }
+    }
+}
+
+impl RadianceShare {
+    /// A fixed share β (0: none).
+    pub fn fixed(value: f32) -> Self {
+        RadianceShare {
+            value,
+            learned: false,
+            learning: Default::default(),
+        }
+    }
+
+    /// The starting share of a per-leaf learned one, if any.
+    pub fn learned_start(&self) -> Option<f32> {
+        (self.learned && self.value > 0.0).then_some(self.value)
+    }
+
+    pub fn check(&self) -> Result<(), String> {
+        check_radiance_share(self.value)
+    }
+
+    /// For plan lines and reports.
+    pub fn describe(&self) -> String {
+        match (self.value > 0.0, self.learned) {
+            (false, _) => "product samples alone".into(),
+            (true, false) => format!(
+                "{} of their guided samples from radiance weights",
+                self.value
+            ),
+            (true, true) => format!(
+                "a share of their guided samples from radiance weights learned per leaf from {} ({:?})",
+                self.value, self.learning
+            ),
+        }
+    }
+}
+
 /// Checks a radiance share given on the command line or in options.
 pub fn check_radiance_share(share: f32) -> Result<(), String> {
     if (0.0..1.0).contains(&share) {
@@ -65,7 +135,7 @@ pub fn check_radiance_share(share: f32) -> Result<(), String> {
 /// True when the guide draws a share of its samples from the radiance:
 /// only under product weights (radiance weights are that descent already).
 #[inline]
-fn mixes<W: ChildWeights>(weights: &W, share: f32) -> bool {
+pub(crate) fn mixes<W: ChildWeights>(weights: &W, share: f32) -> bool {
     share > 0.0 && !weights.is_radiance()
 }
 

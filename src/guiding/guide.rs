@@ -4,7 +4,7 @@
 //! guiding), mixed with BSDF sampling by the leaf's learned α.
 
 use super::defensive;
-use super::descent::{self, ChildWeights};
+use super::descent::{self, ChildWeights, RadianceWeights};
 use super::quadtree::QuadTree;
 use super::record::{Record, RecordBuffer};
 use super::sdtree::SdTree;
@@ -138,8 +138,11 @@ pub struct SdVertex<'a, W: ChildWeights> {
     alpha: f32,
     /// Computed where roulette reads it; possibly non-finite or zero.
     adjoint: Option<f32>,
-    /// The model's [`WeightModel::radiance_share`].
+    /// The model's [`WeightModel::radiance_share`], or the leaf's learned
+    /// one.
     radiance_share: f32,
+    /// The share is the leaf's learned one.
+    share_learned: bool,
 }
 
 impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
@@ -157,6 +160,14 @@ impl<W: ChildWeights> GuideVertex for SdVertex<'_, W> {
 
     fn adjoint_estimate(&self) -> Option<f32> {
         self.adjoint
+    }
+
+    fn learned_share(&self) -> f32 {
+        if self.share_learned && defensive::mixes(&self.weights, self.radiance_share) {
+            self.radiance_share
+        } else {
+            0.0
+        }
     }
 }
 
@@ -213,6 +224,10 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
             let root_radiance = leaf.sampling.nodes()[0].sums;
             self.model.adjoint(&weights, ctx, root_total, root_radiance)
         });
+        let fixed_share = self.model.radiance_share();
+        let learned_share = (fixed_share > 0.0)
+            .then(|| self.tree.learned_radiance_share(id))
+            .flatten();
         Some(SdVertex {
             tree: &leaf.sampling,
             weights,
@@ -220,7 +235,8 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
                 .fixed_alpha
                 .unwrap_or_else(|| self.tree.bsdf_fraction(id)),
             adjoint,
-            radiance_share: self.model.radiance_share(),
+            radiance_share: learned_share.unwrap_or(fixed_share),
+            share_learned: learned_share.is_some(),
         })
     }
 
@@ -250,12 +266,29 @@ impl<'t, M: WeightModel> Guide for SdGuide<'t, M> {
                 bsdf_pdf: v.pdf_bsdf,
                 guide_pdf: v.pdf_guide,
                 alpha: v.bsdf_fraction,
+                radiance_pdf: if v.learned_share > 0.0 {
+                    self.radiance_pdf(v.p, v.dir)
+                } else {
+                    0.0
+                },
+                radiance_share: v.learned_share,
                 throughput_pdf: v.throughput_pdf,
                 guided: v.guide_used,
                 seed: record_seed(pass, v),
                 pass,
             });
         }
+    }
+}
+
+impl<M: WeightModel> SdGuide<'_, M> {
+    /// The solid-angle pdf of `dir` under the radiance descent of the leaf
+    /// at `p`: what the share learning compares the product with. Taken
+    /// after the path rather than kept from the vertex, so that rendering
+    /// pays nothing for it; the tree is the one the vertex sampled from.
+    fn radiance_pdf(&self, p: Vec3, dir: Vec3) -> f32 {
+        let leaf = self.tree.leaf(self.tree.lookup(p));
+        descent::pdf_direction(&leaf.sampling, &mut RadianceWeights, dir)
     }
 }
 
@@ -277,7 +310,6 @@ fn record_seed(pass: u64, v: &PathVertex) -> u64 {
 mod tests {
     use super::*;
     use crate::bsdf::{Bsdf, BsdfModel};
-    use crate::guiding::descent::RadianceWeights;
     use crate::guiding::sdtree::SdTreeConfig;
 
     /// Radiance weights with an adjoint that is always NaN.

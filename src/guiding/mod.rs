@@ -8,6 +8,7 @@
 //!   by a [`descent::ChildWeights`] (radiance or product);
 //! - [`defensive`]: the product's guided samples mixed with a share drawn
 //!   from the radiance descent of the same tree;
+//! - [`share_learning`]: that share learned per spatial leaf (optional);
 //! - [`sdtree`]: the spatial binary tree whose leaves own quadtree pairs;
 //! - [`record`]: per-thread record buffers and their deterministic merge;
 //! - [`adam`]: the learned BSDF-sampling fraction;
@@ -62,6 +63,7 @@ pub mod quadtree;
 pub mod record;
 pub mod schedule;
 pub mod sdtree;
+pub mod share_learning;
 pub mod support;
 pub mod train;
 pub mod trial;

@@ -67,7 +67,7 @@ pub const DEFAULT_PRODUCT_VERTICES: u32 = 1;
 pub fn product_weights_scope(
     product_vertices: u32,
     pixel_reuse: bool,
-    radiance_share: f32,
+    radiance_share: super::defensive::RadianceShare,
 ) -> String {
     let scope = match product_vertices {
         0 => "every vertex".into(),
@@ -79,11 +79,7 @@ pub fn product_weights_scope(
     } else {
         "no lobe reuse across paths"
     };
-    let share = if radiance_share > 0.0 {
-        format!("{radiance_share} of their guided samples from radiance weights")
-    } else {
-        "product samples alone".into()
-    };
+    let share = radiance_share.describe();
     format!("{scope}; {share}; {reuse}")
 }
 

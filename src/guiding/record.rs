@@ -13,8 +13,9 @@
 //!   using an RNG seeded by the record's own `seed`;
 //! - directional filter: the value is box-splatted into the recording
 //!   quadtree of the leaf the jittered point falls in;
-//! - the Adam step of the BSDF fraction is taken in the leaf that actually
-//!   produced the sample (no jitter: α belongs to the vertex's leaf).
+//! - the Adam steps of the BSDF fraction (and of the radiance share, where
+//!   it is learned) are taken in the leaf that actually produced the
+//!   sample (no jitter: α and β belong to the vertex's leaf).
 //!
 //! Guards (each rejected record counted exactly once, in this order):
 //! non-finite field or zero direction → `rejected_non_finite`; throughput·p_mix ≤
@@ -23,6 +24,7 @@
 
 use super::adam::{AdamStats, NonFiniteGradient};
 use super::sdtree::SdTree;
+use super::share_learning::{ShareLearning, ShareSample};
 use crate::directional::dir_to_square;
 use crate::sampling::Rng;
 use glam::{Vec2, Vec3};
@@ -49,6 +51,12 @@ pub struct Record {
     pub guide_pdf: f32,
     /// BSDF fraction α of the mixture used at this vertex.
     pub alpha: f32,
+    /// Where the guide mixed its product with a learned radiance share:
+    /// the radiance descent's pdf of ω_i (else 0).
+    pub radiance_pdf: f32,
+    /// The learned radiance share β the guide's mixture used (0: none to
+    /// learn, `super::share_learning`).
+    pub radiance_share: f32,
     /// Scalar path throughput up to the vertex times p_mix(ω_i); guards
     /// against estimates obtained by dividing by ~0.
     pub throughput_pdf: f32,
@@ -73,6 +81,8 @@ pub struct RecordStats {
     pub rejected_zero_pdf: u64,
     /// Accepted records that also fed an Adam step, and gradients refused.
     pub adam: AdamStats,
+    /// The same for the learned radiance share's steps.
+    pub share: AdamStats,
 }
 
 impl RecordStats {
@@ -86,6 +96,7 @@ impl RecordStats {
         self.rejected_negative += o.rejected_negative;
         self.rejected_zero_pdf += o.rejected_zero_pdf;
         self.adam.merge(&o.adam);
+        self.share.merge(&o.share);
     }
 }
 
@@ -106,6 +117,8 @@ pub fn validate(r: &Record) -> Result<(), RecordReject> {
         && r.bsdf_pdf.is_finite()
         && r.guide_pdf.is_finite()
         && r.alpha.is_finite()
+        && r.radiance_pdf.is_finite()
+        && r.radiance_share.is_finite()
         && r.throughput_pdf.is_finite()
         // A zero direction has no point on the square: as unusable as NaN.
         && r.direction.length_squared() > 0.0;
@@ -148,8 +161,9 @@ pub const RECORD_BYTES: u64 = (size_of::<Record>()
 
 /// Memory the path records of one training call may fill (the buffers'
 /// capacity, grown by doubling, may reach twice that). A call renders up
-/// to 16 passes and holds all their records until it ends: 116 bytes per
-/// recorded vertex (staircase at 360×640: 93 MB a pass), so at 1920×1080 a
+/// to 16 passes and holds all their records until it ends: 128 bytes per
+/// recorded vertex (staircase at 360×640: 102 MB a pass; 116 bytes before
+/// the records carried the learned radiance share's inputs), so at 1920×1080 a
 /// 16-pass call would have held some 13 GB, and more than the machine has
 /// at 4K. Training calls are cut to the passes that fit. Every record is
 /// still recorded; between the extra calls Adam's BSDF fractions move on,
@@ -184,8 +198,10 @@ pub fn passes_within_record_budget(
     n.min(fit).max(1)
 }
 
-/// One Adam sample: (pass, [F/p, p_bsdf, p_guide, α used]).
-type AdamSample = (u64, [f32; 4]);
+/// One Adam sample: (pass, [F/p, p_bsdf, p_guide, α used, p_radiance,
+/// β used]). A u32 pass (a render of 4·10⁹ passes is out of reach) keeps
+/// it at 28 bytes.
+type AdamSample = (u32, [f32; 6]);
 
 /// A record's leaves: where its jittered splat lands ([`NO_LEAF`] when the
 /// guards refused it), and the leaf whose BSDF fraction it steps
@@ -277,7 +293,7 @@ impl RunWork {
         self.splats
             .resize(self.splat_start[n_leaves], (Vec2::ZERO, 0.0));
         self.adam.clear();
-        self.adam.resize(self.adam_start[n_leaves], (0, [0.0; 4]));
+        self.adam.resize(self.adam_start[n_leaves], (0, [0.0; 6]));
         let mut next_splat = self.splat_start.clone();
         let mut next_adam = self.adam_start.clone();
         for (r, &(target, adam_leaf)) in records().zip(&self.leaves) {
@@ -289,7 +305,17 @@ impl RunWork {
             *slot += 1;
             if adam_leaf != NO_LEAF {
                 let slot = &mut next_adam[adam_leaf as usize];
-                self.adam[*slot] = (r.pass, [r.product, r.bsdf_pdf, r.guide_pdf, r.alpha]);
+                self.adam[*slot] = (
+                    u32::try_from(r.pass).unwrap_or(u32::MAX),
+                    [
+                        r.product,
+                        r.bsdf_pdf,
+                        r.guide_pdf,
+                        r.alpha,
+                        r.radiance_pdf,
+                        r.radiance_share,
+                    ],
+                );
                 *slot += 1;
             }
         }
@@ -338,7 +364,8 @@ pub fn record_pass_reusing(
     }
     let work = &*work;
     let adam_cfg = tree.config.adam;
-    let leaf_adam: Vec<AdamStats> = tree
+    let share_learning = tree.config.share_learning;
+    let leaf_adam: Vec<(AdamStats, AdamStats)> = tree
         .leaves_mut()
         .par_iter_mut()
         .enumerate()
@@ -367,17 +394,70 @@ pub fn record_pass_reusing(
                     .map(|(k, &(pass, sample))| (pass, k, sample)),
             );
             steps.sort_unstable_by_key(|&(pass, k, _)| (pass, k));
-            let mut s = AdamStats::default();
-            for &(_, _, [product, bsdf_pdf, guide_pdf, alpha]) in steps.iter() {
-                let _: Result<(), NonFiniteGradient> = leaf
-                    .fraction
-                    .step_sample(&adam_cfg, product, bsdf_pdf, guide_pdf, alpha, &mut s);
+            let (mut s, mut share_stats) = (AdamStats::default(), AdamStats::default());
+            for &(
+                _,
+                _,
+                [
+                    product,
+                    bsdf_pdf,
+                    guide_pdf,
+                    alpha,
+                    radiance_pdf,
+                    share_used,
+                ],
+            ) in steps.iter()
+            {
+                if share_used == 0.0 {
+                    let _: Result<(), NonFiniteGradient> = leaf
+                        .fraction
+                        .step_sample(&adam_cfg, product, bsdf_pdf, guide_pdf, alpha, &mut s);
+                    continue;
+                }
+                // A learned share: α's step sees the guide's mixture at the
+                // current β, and β's the current α, so that both follow the
+                // gradient of one loss at one point.
+                let sample = ShareSample {
+                    product,
+                    bsdf_pdf,
+                    guide_pdf,
+                    radiance_pdf,
+                    share_used,
+                    alpha_used: alpha,
+                };
+                let alpha_now = leaf.fraction.alpha(&adam_cfg);
+                let guide_pdf_now = sample.guide_pdf_at(leaf.share.share()) as f32;
+                let _: Result<(), NonFiniteGradient> = leaf.fraction.step_sample(
+                    &adam_cfg,
+                    product,
+                    bsdf_pdf,
+                    guide_pdf_now,
+                    alpha,
+                    &mut s,
+                );
+                let _: Result<(), NonFiniteGradient> = match share_learning {
+                    ShareLearning::VarianceGrid => {
+                        leaf.share.add_to_grid(&sample, alpha_now, &mut share_stats)
+                    }
+                    _ => leaf.share.step_sample(
+                        &adam_cfg,
+                        share_learning,
+                        &sample,
+                        alpha_now,
+                        leaf.fraction.product_mean(),
+                        &mut share_stats,
+                    ),
+                };
             }
-            s
+            if share_learning == ShareLearning::VarianceGrid && share_stats.steps > 0 {
+                leaf.share.choose_from_grid();
+            }
+            (s, share_stats)
         })
         .collect();
-    for s in &leaf_adam {
+    for (s, share) in &leaf_adam {
         stats.adam.merge(s);
+        stats.share.merge(share);
     }
     stats
 }
@@ -392,6 +472,8 @@ mod tests {
     /// full call.
     #[test]
     fn training_calls_keep_their_records_within_the_budget() {
+        // What RECORD_BUDGET_BYTES's docs state.
+        assert_eq!(RECORD_BYTES, 128);
         let bytes = |passes: u64, per_pass: f64| passes as f64 * per_pass * RECORD_BYTES as f64;
         // Staircase-like: 0.8 M records a pass.
         let n = passes_within_record_budget(16, Some(8e5), 230_400, 10);
@@ -406,8 +488,9 @@ mod tests {
             1
         );
         // Before any measurement: every pixel's path at the depth limit.
-        let first = passes_within_record_budget(16, None, 230_400, 10);
-        assert!(bytes(first, 2.304e6) <= RECORD_BUDGET_BYTES as f64 && first >= 1);
+        let first = passes_within_record_budget(16, None, 160_000, 10);
+        assert!(bytes(first, 1.6e6) <= RECORD_BUDGET_BYTES as f64 && first >= 1);
+        assert!(bytes(first + 1, 1.6e6) > RECORD_BUDGET_BYTES as f64);
         // A small image, or no records: the full call.
         assert_eq!(passes_within_record_budget(16, Some(1e4), 10_000, 10), 16);
         assert_eq!(passes_within_record_budget(16, Some(0.0), 10_000, 10), 16);

@@ -4,7 +4,8 @@
 //! depth d splits its box in half along axis d mod 3 (x → y → z). Each leaf
 //! owns a pair of directional quadtrees — `sampling` (learnt from the
 //! previous iteration, read-only during a pass) and `recording` (this
-//! iteration's flux) — and the Adam state of its BSDF-sampling fraction.
+//! iteration's flux) — and the Adam states of its BSDF-sampling fraction
+//! and of the product's radiance share (when it is learned).
 //!
 //! Split rule: after iteration k a leaf splits when its recorded statistical
 //! weight (accepted samples) exceeds c·√(2^k). Iteration k renders 2^k
@@ -13,7 +14,7 @@
 //! resolution. c = 12000 is the reference implementation's default for
 //! 1280×720; renders scale it with their pixel count
 //! ([`default_split_threshold`]). On a split
-//! both children copy the parent's trees and α, and the recorded flux and
+//! both children copy the parent's trees, α and β, and the recorded flux and
 //! weight are halved: in expectation each half-box received half, and the
 //! mean-radiance estimate sum/weight is unchanged. Splitting repeats while a
 //! child is still above the threshold.
@@ -25,6 +26,7 @@
 use super::adam::{AdamConfig, BsdfFraction};
 use super::build::QuadTreeBuilder;
 use super::quadtree::QuadTree;
+use super::share_learning::{LearnedShare, ShareLearning};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -69,6 +71,12 @@ pub struct SdTreeConfig {
     pub split_threshold: f64,
     pub builder: QuadTreeBuilder,
     pub adam: AdamConfig,
+    /// Product guiding's radiance share β learned per leaf from this
+    /// starting value (`super::share_learning`); `None`: the guide's fixed
+    /// β, or none.
+    pub learned_radiance_share: Option<f32>,
+    /// What the learned share minimises.
+    pub share_learning: ShareLearning,
 }
 
 impl Default for SdTreeConfig {
@@ -77,6 +85,8 @@ impl Default for SdTreeConfig {
             split_threshold: REFERENCE_SPLIT_THRESHOLD,
             builder: QuadTreeBuilder::default(),
             adam: AdamConfig::default(),
+            learned_radiance_share: None,
+            share_learning: ShareLearning::default(),
         }
     }
 }
@@ -105,6 +115,9 @@ pub struct SdLeaf {
     /// Being filled by this iteration's records.
     pub recording: QuadTree,
     pub fraction: BsdfFraction,
+    /// The product's radiance share, used when the tree learns it
+    /// ([`SdTreeConfig::learned_radiance_share`]).
+    pub share: LearnedShare,
 }
 
 /// Sizes of the whole structure.
@@ -168,6 +181,7 @@ impl SdTree {
                 sampling: QuadTree::new(),
                 recording: QuadTree::new(),
                 fraction: BsdfFraction::default(),
+                share: LearnedShare::starting_at(config.learned_radiance_share.unwrap_or(0.0)),
             }],
             config,
         }
@@ -328,6 +342,14 @@ impl SdTree {
                 }
                 leaf.recording = leaf.sampling.structure_copy();
             });
+    }
+
+    /// The leaf's learned radiance share, when the tree learns it.
+    #[inline]
+    pub fn learned_radiance_share(&self, leaf: u32) -> Option<f32> {
+        self.config
+            .learned_radiance_share
+            .map(|_| self.leaves[leaf as usize].share.share())
     }
 
     /// BSDF-sampling fraction of a leaf.

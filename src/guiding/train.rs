@@ -68,6 +68,8 @@ pub struct GuidingStats {
     pub adam_rejected: u64,
     /// λ of the BSDF fraction's L2 term (`--bsdf-fraction-l2`).
     pub adam_l2: f64,
+    /// The product's learned radiance shares (all zero when not learned).
+    pub learned_shares: super::share_learning::LearnedShareSummary,
     /// Iterations left out of the final image because their variance was
     /// not finite (see [`combine_counting`]).
     pub iterations_dropped_nonfinite_variance: u64,
@@ -133,6 +135,11 @@ pub fn render_guided<M: WeightModel>(
             l2: opts.bsdf_fraction_l2.unwrap_or(AdamConfig::default().l2),
             ..AdamConfig::default()
         },
+        learned_radiance_share: opts
+            .radiance_share
+            .learned_start()
+            .filter(|_| model.radiance_share() > 0.0),
+        share_learning: opts.radiance_share.learning,
         ..SdTreeConfig::default()
     };
     let mut tree = SdTree::new(scene.bounds.0, scene.bounds.1, config);
@@ -449,6 +456,14 @@ pub fn render_guided<M: WeightModel>(
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
         adam_l2: tree.config.adam.l2,
+        learned_shares: if tree.config.learned_radiance_share.is_some() {
+            super::share_learning::LearnedShareSummary::of(
+                tree.leaves().iter().map(|l| &l.share),
+                records.share,
+            )
+        } else {
+            Default::default()
+        },
         iterations_dropped_nonfinite_variance: iterations_dropped,
         training_stop: opts.training_stop,
         training_ended_by,

@@ -36,6 +36,12 @@ pub trait GuideVertex {
     fn adjoint_estimate(&self) -> Option<f32> {
         None
     }
+    /// The share of the guide's samples drawn from a second, defensive
+    /// distribution when the guide learns it from the recorded paths
+    /// (`guiding::share_learning`); 0 where nothing is learned.
+    fn learned_share(&self) -> f32 {
+        0.0
+    }
 }
 
 /// One scattering vertex of a finished path, as the learning step needs it.
@@ -55,6 +61,8 @@ pub struct PathVertex {
     pub pdf_bsdf: f32,
     pub pdf_guide: f32,
     pub bsdf_fraction: f32,
+    /// [`GuideVertex::learned_share`] of the vertex's guide (0: none).
+    pub learned_share: f32,
     /// The vertex lies where the tree guides (its material has a non-delta
     /// lobe): it is recorded, as a sample of the mixture drawn there.
     pub recorded: bool,

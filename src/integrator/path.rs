@@ -314,6 +314,7 @@ pub fn trace_path<G: Guide>(
                             pdf_bsdf: pb,
                             pdf_guide: pg,
                             bsdf_fraction: a,
+                            learned_share: g.learned_share(),
                             recorded: true,
                             delta: false,
                             guide_used: false,
@@ -378,6 +379,7 @@ pub fn trace_path<G: Guide>(
                 pdf_bsdf,
                 pdf_guide,
                 bsdf_fraction: alpha,
+                learned_share: guide_vertex.as_ref().map_or(0.0, |g| g.learned_share()),
                 // Delta samples at a guided vertex are samples of its
                 // mixture too: they count in N, and they tell Adam what
                 // BSDF sampling buys there (Müller 2019 keeps them; without

@@ -47,7 +47,7 @@ pub fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,
         pixel_reuse: true,
-        radiance_share: ltcguide::guiding::defensive::DEFAULT_RADIANCE_SHARE,
+        radiance_share: ltcguide::guiding::defensive::RadianceShare::default(),
         guide_support: ltcguide::guiding::support::GuideSupport::Sphere,
         bsdf_fraction_l2: None,
         side_by_side: false,
