@@ -71,6 +71,7 @@ pub const DEFAULT_RADIANCE_SHARE: f32 = 0.3;
 /// on staircase and veach-mis), which helped staircase and cost veach-mis
 /// at its glossy first vertices (1.12 → 1.24–1.31), where the share's
 /// rare light-finding samples are what a leaf's own samples under-count.
+pub const DEFAULT_SHARE_LEARNING: bool = false;
 
 /// Product guiding's radiance share setting: a fixed β, or β learned per
 /// leaf starting from it. A β of 0 is the paper's product alone and
