@@ -62,14 +62,14 @@ pub const DEFAULT_RADIANCE_SHARE: f32 = 0.3;
 ///
 /// | scene | fixed | KL | variance | grid |
 /// |---|---|---|---|---|
-/// | staircase | 0.982 | 0.928 | 0.895 | 0.935 |
-/// | veach-mis | 1.040 | 1.111 | 1.107 | 1.066 |
-/// | veach-ajar | 1.055 | | 1.001 | 1.079 |
-/// | living-room | 0.902 | | 0.913 | 0.911 |
+/// | staircase | 0.967 | 0.928 | 0.895 | 0.935 |
+/// | veach-mis | 1.090 | 1.111 | 1.107 | 1.066 |
+/// | veach-ajar | 1.041 | | 1.001 | 1.079 |
+/// | living-room | 0.899 | | 0.913 | 0.911 |
 ///
 /// Every learner took most leaves' share below 0.3 (weighted means 0.06–0.23
 /// on staircase and veach-mis), which helped staircase and cost veach-mis
-/// at its glossy first vertices (1.12 → 1.24–1.31), where the share's
+/// at its glossy first vertices (1.15 → 1.24–1.31), where the share's
 /// rare light-finding samples are what a leaf's own samples under-count.
 pub const DEFAULT_SHARE_LEARNING: bool = false;
 
