@@ -266,17 +266,7 @@ pub fn share_gradient_theta(
     alpha_now: f32,
     s: &ShareSample,
 ) -> Option<f64> {
-    let inputs = [
-        s.product,
-        s.bsdf_pdf,
-        s.guide_pdf,
-        s.radiance_pdf,
-        s.share_used,
-        s.alpha_used,
-        share_now,
-        alpha_now,
-    ];
-    if !(inputs.iter().all(|x| x.is_finite()) && theta.is_finite()) {
+    if !(s.is_finite() && share_now.is_finite() && alpha_now.is_finite() && theta.is_finite()) {
         return None;
     }
     if !(s.share_used > 0.0 && s.share_used < 1.0) {
@@ -362,6 +352,19 @@ mod tests {
         alpha * P_BSDF[i] as f64 + (1.0 - alpha) * guide(share, i)
     }
 
+    /// The record of direction i, integrand `f`, drawn from the mixture
+    /// at (α_used, β_used).
+    fn drawn(f: f64, i: usize, alpha_used: f32, share_used: f32) -> ShareSample {
+        ShareSample {
+            product: (f / mixture(alpha_used as f64, share_used as f64, i)) as f32,
+            bsdf_pdf: P_BSDF[i],
+            guide_pdf: guide(share_used as f64, i) as f32,
+            radiance_pdf: P_RADIANCE[i],
+            share_used,
+            alpha_used,
+        }
+    }
+
     /// Each loss as a function of θ_β, up to terms free of β.
     fn loss(kind: ShareLearning, alpha: f64, theta: f64) -> f64 {
         let share = sigmoid(theta);
@@ -386,17 +389,9 @@ mod tests {
                 let share_now = sigmoid(theta) as f32;
                 let expected_gradient: f64 = (0..4)
                     .map(|i| {
-                        let p_used = mixture(alpha_used as f64, share_used as f64, i);
-                        let s = ShareSample {
-                            product: (F[i] / p_used) as f32,
-                            bsdf_pdf: P_BSDF[i],
-                            guide_pdf: guide(share_used as f64, i) as f32,
-                            radiance_pdf: P_RADIANCE[i],
-                            share_used,
-                            alpha_used,
-                        };
+                        let s = drawn(F[i], i, alpha_used, share_used);
                         let g = share_gradient_theta(kind, theta, share_now, alpha, &s).unwrap();
-                        p_used * g
+                        s.used_pdf() * g
                     })
                     .sum();
                 let h = 1e-5;
@@ -436,16 +431,12 @@ mod tests {
                 i += 1;
                 cdf += mixture(alpha_used as f64, share_used as f64, i);
             }
-            let p_used = mixture(alpha_used as f64, share_used as f64, i);
-            let s = ShareSample {
-                product: (F_GRID[i] / p_used) as f32,
-                bsdf_pdf: P_BSDF[i],
-                guide_pdf: guide(share_used as f64, i) as f32,
-                radiance_pdf: P_RADIANCE[i],
-                share_used,
-                alpha_used,
-            };
-            l.add_to_grid(&s, alpha, &mut stats).unwrap();
+            l.add_to_grid(
+                &drawn(F_GRID[i], i, alpha_used, share_used),
+                alpha,
+                &mut stats,
+            )
+            .unwrap();
         }
         let estimate = l.grid_second_moments().unwrap();
         for k in 0..SHARE_GRID.len() {
