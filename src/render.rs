@@ -108,6 +108,9 @@ pub struct RenderOptions {
     /// Guided methods: λ of the learned BSDF fraction's L2 term, which pulls
     /// α towards ½; `None`: [`crate::guiding::adam::AdamConfig`]'s default.
     pub bsdf_fraction_l2: Option<f64>,
+    /// Guided methods: how each leaf learns its BSDF fraction (Adam on the
+    /// KL divergence, or the grid of least second moment).
+    pub bsdf_fraction_learning: crate::guiding::adam::FractionLearning,
     /// What the budget, the snapshot times and the training schedule are
     /// measured in.
     pub time_base: TimeBase,
@@ -139,6 +142,7 @@ impl Default for RenderOptions {
             use_plan: true,
             spatial_threshold: None,
             bsdf_fraction_l2: None,
+            bsdf_fraction_learning: crate::guiding::adam::FractionLearning::Kl,
             time_base: TimeBase::Wall,
         }
     }
@@ -157,6 +161,12 @@ impl RenderOptions {
         crate::guiding::adrrs::check_window(self.path.adrrs_window)?;
         if let Some(a) = self.bsdf_fraction {
             check_bsdf_fraction(a)?;
+            if self.bsdf_fraction_learning != crate::guiding::adam::FractionLearning::Kl {
+                return Err(format!(
+                    "--bsdf-fraction {a} fixes α, so --bsdf-fraction-learning {} would learn nothing",
+                    self.bsdf_fraction_learning
+                ));
+            }
         }
         if let Some(c) = self.spatial_threshold {
             crate::guiding::sdtree::check_split_threshold(c)?;

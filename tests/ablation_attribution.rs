@@ -6,6 +6,7 @@
 mod common;
 
 use common::study::{settings, tiny};
+use ltcguide::guiding::adam::FractionLearning;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::render::{Method, TimeBase};
 use ltcguide::scene::Scene;
@@ -95,6 +96,7 @@ fn attribution_pairs_differ_only_in_the_method() {
         other_roulette: RouletteMode::Classic,
         exact_integrals,
         bsdf_fraction_l2: None,
+        bsdf_fraction_learning: FractionLearning::Kl,
         radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(0.3),
         clock: TimeBase::Cpu,
         progress: false,
@@ -294,6 +296,7 @@ fn attribution_refuses_options_it_cannot_run() {
         other_roulette: RouletteMode::Classic,
         exact_integrals: false,
         bsdf_fraction_l2: None,
+        bsdf_fraction_learning: FractionLearning::Kl,
         radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(0.3),
         clock: TimeBase::Wall,
         progress: false,

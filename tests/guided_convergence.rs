@@ -11,6 +11,7 @@ mod common;
 
 use common::*;
 use ltcguide::film::compare::compare_blocks;
+use ltcguide::guiding::adam::FractionLearning;
 use ltcguide::guiding::defensive::RadianceShare;
 use ltcguide::guiding::product::CosineLobes;
 use ltcguide::guiding::share_learning::ShareLearning;
@@ -466,6 +467,33 @@ fn a_radiance_share_changes_no_expectation() {
             let learned = &product.stats.guiding.as_ref().unwrap().learned_shares;
             assert!(learned.steps > 0, "{learned:?}");
         }
+    }
+}
+
+/// Both guided methods with each leaf's BSDF fraction chosen from the
+/// grid of least second moment (`guiding::moment_grid`) converge to path
+/// tracing's image: α jumping between grid values from one pass to the
+/// next changes no expectation, since every sample is weighed by the
+/// mixture it was drawn from.
+#[test]
+fn a_fraction_chosen_from_the_grid_changes_no_expectation() {
+    let scene = own_scene();
+    let path = short_paths(true, RouletteMode::Classic);
+    for method in [Method::Radiance, Method::Product] {
+        let opts = RenderOptions {
+            use_plan: false,
+            bsdf_fraction_learning: FractionLearning::VarianceGrid,
+            ..options(method, 48, 13, path)
+        };
+        let r = render(&scene, &opts).unwrap();
+        assert_is_guided("glossy-gap", method, &r);
+        let g = r.stats.guiding.as_ref().unwrap();
+        assert_eq!(g.bsdf_fraction_learning, FractionLearning::VarianceGrid);
+        assert!(
+            g.adam_steps > 0 && g.adam_rejected == 0,
+            "{method:?}: {g:?}"
+        );
+        assert_agrees_with_pt(&format!("{method:?}, α from the grid"), &r);
     }
 }
 

@@ -416,30 +416,77 @@ fn inverse_variance_combination_matches_hand_computation() {
     assert!(combine(&[&empty]).is_none());
 }
 
+/// The own glossy-gap scene and radiance guiding at 16 spp without NEE:
+/// the setting of the tests of the fraction's options.
+fn gap_radiance_at_16_spp() -> (ltcguide::scene::Scene, ltcguide::render::RenderOptions) {
+    use ltcguide::integrator::path::{PathSettings, RouletteMode};
+    use ltcguide::render::{Budget, Method, RenderOptions};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glossy-gap/scene.xml");
+    let opts = RenderOptions {
+        method: Method::Radiance,
+        budget: Budget::Spp(16),
+        seed: 7,
+        threads: 2,
+        path: PathSettings {
+            nee: false,
+            max_depth: Some(6),
+            roulette: RouletteMode::Adrrs,
+            adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        },
+        use_plan: false,
+        ..Default::default()
+    };
+    (ltcguide::scene::load_scene(&path).unwrap(), opts)
+}
+
+/// `RenderOptions::bsdf_fraction_learning` reaches the leaves: with the
+/// grid every trained leaf's α is a grid fraction, not all the one it
+/// started from, and the stats name the learning; a fixed fraction refuses
+/// it, since nothing would be learned.
+#[test]
+fn the_grid_learning_reaches_every_leaf_and_the_stats() {
+    use ltcguide::guiding::adam::{FRACTION_GRID, FractionLearning};
+    use ltcguide::render::{RenderOptions, render};
+    let (scene, opts) = gap_radiance_at_16_spp();
+    let opts = RenderOptions {
+        bsdf_fraction_learning: FractionLearning::VarianceGrid,
+        ..opts
+    };
+    let r = render(&scene, &opts).unwrap();
+    let stats = r.stats.guiding.as_ref().unwrap();
+    assert_eq!(stats.bsdf_fraction_learning, FractionLearning::VarianceGrid);
+    let tree = r.tree.unwrap();
+    let chosen: Vec<f32> = (0..tree.leaves().len() as u32)
+        .filter(|&i| tree.leaf(i).fraction.steps() >= 64)
+        .map(|i| tree.bsdf_fraction(i))
+        .collect();
+    assert!(chosen.len() >= 4, "{} trained leaves", chosen.len());
+    assert!(
+        chosen.iter().all(|a| FRACTION_GRID.contains(a)),
+        "{chosen:?}"
+    );
+    assert!(chosen.iter().any(|&a| a != 0.5), "{chosen:?}");
+    let fixed = RenderOptions {
+        bsdf_fraction: Some(0.3),
+        ..opts
+    };
+    let err = render(&scene, &fixed)
+        .err()
+        .expect("a fixed fraction refuses the grid");
+    assert!(err.contains("--bsdf-fraction-learning"), "{err}");
+}
+
 /// `RenderOptions::bsdf_fraction_l2` reaches the leaves' Adam states: a
 /// huge λ holds every trained leaf's α at ½, while without the pull the
 /// same render's leaves move away from it. The stats report the λ used.
 #[test]
 fn the_l2_option_reaches_every_leaf_and_the_stats() {
-    use ltcguide::integrator::path::{PathSettings, RouletteMode};
-    use ltcguide::render::{Budget, Method, RenderOptions, render};
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/glossy-gap/scene.xml");
-    let scene = ltcguide::scene::load_scene(&path).unwrap();
+    use ltcguide::render::{RenderOptions, render};
+    let (scene, opts) = gap_radiance_at_16_spp();
     let run = |l2: f64| {
         let opts = RenderOptions {
-            method: Method::Radiance,
-            budget: Budget::Spp(16),
-            seed: 7,
-            threads: 2,
-            path: PathSettings {
-                nee: false,
-                max_depth: Some(6),
-                roulette: RouletteMode::Adrrs,
-                adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
-            },
-            use_plan: false,
             bsdf_fraction_l2: Some(l2),
-            ..Default::default()
+            ..opts.clone()
         };
         let r = render(&scene, &opts).unwrap();
         assert_eq!(r.stats.guiding.as_ref().unwrap().adam_l2, l2);

@@ -280,6 +280,24 @@ fn merge_pools_only_runs_at_the_same_bsdf_fraction_l2() {
     };
     let (a, b, c) = (temp("la"), temp("lb"), temp("lc"));
     let default = study_at(&a, 0, None);
+    // The grid-learned fraction is a setting of its own, refused alike.
+    let grid_dir = temp("lgrid");
+    let grid_opts = CompareOptions {
+        first_run: 3,
+        use_plan: false,
+        bsdf_fraction_learning: ltcguide::guiding::adam::FractionLearning::VarianceGrid,
+        ..compare_options(vec![Method::Pt, Method::Radiance], &grid_dir)
+    };
+    run_compare(&tiny(), &flat_reference(), &grid_opts).unwrap();
+    let grid = std::fs::read_to_string(grid_dir.join("summary.md")).unwrap();
+    assert!(
+        grid.contains("training stops: budget, BSDF fraction learned by variance-grid. "),
+        "{grid}"
+    );
+    let grid_refused = temp("lgridrefused");
+    let err = merge(&grid_refused, &[a.clone(), grid_dir.clone()], false).unwrap_err();
+    assert!(err.contains("differ in"), "{err}");
+    std::fs::remove_dir_all(&grid_dir).ok();
     let named_default = study_at(&b, 1, Some(0.01));
     let other = study_at(&c, 2, Some(0.1));
     let settings = |summary: &str| {

@@ -9,6 +9,7 @@ mod study_commands;
 use clap::{Args, Parser, Subcommand};
 use ltcguide::film::exr_io::read_valid_image;
 use ltcguide::film::metrics::{mae, mean_bias, relmse, relmse_tail};
+use ltcguide::guiding::adam::FractionLearning;
 use ltcguide::guiding::product::CosineLobes;
 use ltcguide::guiding::schedule::TrainingStop;
 use ltcguide::guiding::support::GuideSupport;
@@ -110,6 +111,12 @@ pub struct GuidedArgs {
     /// scenes whose learning sets in late (docs/results-reading.md, session 32).
     #[arg(long, value_enum, default_value_t = TrainingStop::Budget)]
     pub training_stop: TrainingStop,
+    /// Guided methods: how each spatial leaf learns its BSDF fraction α.
+    /// `kl` (default, Müller 2019): Adam on the KL divergence to the
+    /// integrand. `variance-grid`: the fraction of a fixed grid whose
+    /// estimated second moment over the leaf's training samples is least.
+    #[arg(long, value_enum, default_value_t = FractionLearning::Kl)]
+    pub bsdf_fraction_learning: FractionLearning,
 }
 
 /// Product guiding's settings, shared by render and compare.

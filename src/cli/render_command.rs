@@ -208,6 +208,7 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         use_plan: !args.no_plan,
         spatial_threshold: args.spatial_threshold,
         bsdf_fraction_l2: args.bsdf_fraction_l2,
+        bsdf_fraction_learning: args.guided.bsdf_fraction_learning,
         time_base: args.clock,
     };
     let plan = ltcguide::render::run_plan(&scene, &opts);

@@ -127,6 +127,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         radiance_share: args.product.radiance_share(),
         guide_support: args.guided.guide_support,
         bsdf_fraction_l2: args.bsdf_fraction_l2,
+        bsdf_fraction_learning: args.guided.bsdf_fraction_learning,
         side_by_side: args.side_by_side,
         use_plan: !args.no_plan,
         progress: true,

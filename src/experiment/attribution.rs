@@ -75,6 +75,9 @@ pub struct AttributeArgs {
     /// fractions (as for render; default 0.01).
     #[arg(long)]
     pub bsdf_fraction_l2: Option<f64>,
+    /// How both methods' leaves learn their BSDF fraction (as for render).
+    #[arg(long, value_enum, default_value_t = crate::guiding::adam::FractionLearning::Kl)]
+    pub bsdf_fraction_learning: crate::guiding::adam::FractionLearning,
     /// The product's share of guided samples drawn from radiance weights
     /// (as for render; 0: the paper's product alone).
     #[arg(long, default_value_t = crate::guiding::defensive::DEFAULT_RADIANCE_SHARE)]
@@ -111,6 +114,7 @@ impl AttributeArgs {
             other_roulette: self.other_rr,
             exact_integrals: !self.no_exact,
             bsdf_fraction_l2: self.bsdf_fraction_l2,
+            bsdf_fraction_learning: self.bsdf_fraction_learning,
             radiance_share: crate::guiding::defensive::RadianceShare {
                 value: self.radiance_share,
                 learned: self.learn_radiance_share,
@@ -140,6 +144,8 @@ pub struct AttributionOptions {
     pub exact_integrals: bool,
     /// λ of the learned BSDF fraction's L2 term (`None`: Adam's default).
     pub bsdf_fraction_l2: Option<f64>,
+    /// How the learned BSDF fractions learn.
+    pub bsdf_fraction_learning: crate::guiding::adam::FractionLearning,
     /// The product's radiance share (`guiding::defensive`).
     pub radiance_share: crate::guiding::defensive::RadianceShare,
     /// The clock of the seconds factors. With several threads per render,
@@ -375,6 +381,7 @@ pub fn check(opts: &AttributionOptions) -> Result<(), String> {
         budget: Budget::Spp(opts.spp),
         path: opts.path,
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        bsdf_fraction_learning: opts.bsdf_fraction_learning,
         radiance_share: opts.radiance_share,
         ..Default::default()
     }
@@ -395,6 +402,7 @@ pub fn run_attribution(
         path: opts.path,
         use_plan: false,
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        bsdf_fraction_learning: opts.bsdf_fraction_learning,
         radiance_share: opts.radiance_share,
         time_base: opts.clock,
         ..Default::default()

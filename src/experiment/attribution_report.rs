@@ -25,7 +25,7 @@ pub(super) fn markdown(
         opts.spp,
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
-        super::compare::l2_phrase(opts.bsdf_fraction_l2),
+        super::compare::fraction_phrase(opts.bsdf_fraction_l2, opts.bsdf_fraction_learning),
         opts.radiance_share,
         match opts.clock {
             TimeBase::Cpu => "of each render's own CPU time per thread",

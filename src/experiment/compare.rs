@@ -69,6 +69,8 @@ pub struct CompareOptions {
     /// Guided methods: λ of the learned BSDF fraction's L2 term (`None`:
     /// Adam's default, Müller's 0.01).
     pub bsdf_fraction_l2: Option<f64>,
+    /// How the guided methods' leaves learn their BSDF fraction.
+    pub bsdf_fraction_learning: crate::guiding::adam::FractionLearning,
     /// Render the methods of a run at the same time, each on an equal share
     /// of the threads, instead of one after the other.
     pub side_by_side: bool,
@@ -104,17 +106,24 @@ pub struct CompareOutcome {
     pub summary: String,
 }
 
-/// The settings line's words for a non-default L2 weight of the BSDF
-/// fraction. The default says nothing, so that the line stays that of the
-/// runs made before the option existed and `merge` still pools with them,
-/// while runs at another λ differ and are refused.
-pub(super) fn l2_phrase(lambda: Option<f64>) -> String {
-    match lambda {
+/// The settings line's words for a non-default L2 weight or learning of
+/// the BSDF fraction. The defaults say nothing, so that the line stays that
+/// of the runs made before the options existed and `merge` still pools with
+/// them, while runs at another λ or learning differ and are refused.
+pub(super) fn fraction_phrase(
+    lambda: Option<f64>,
+    learning: crate::guiding::adam::FractionLearning,
+) -> String {
+    let mut phrase = match lambda {
         Some(l) if l != crate::guiding::adam::AdamConfig::default().l2 => {
             format!(", BSDF fraction's L2 λ = {l}")
         }
         _ => String::new(),
+    };
+    if learning != crate::guiding::adam::FractionLearning::Kl {
+        phrase += &format!(", BSDF fraction learned by {learning}");
     }
+    phrase
 }
 
 /// The guide support `method` runs with: only radiance guiding has a
@@ -409,6 +418,7 @@ pub fn run_options(
         radiance_share: opts.radiance_share,
         guide_support: support_for(method, opts),
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
+        bsdf_fraction_learning: opts.bsdf_fraction_learning,
         use_plan: opts.use_plan,
         time_base: opts.time_base,
         ..Default::default()
@@ -528,7 +538,7 @@ fn summary_markdown(
                 String::new()
             } else {
                 format!(", training stops: {:?}", opts.training_stop).to_lowercase()
-                    + &l2_phrase(opts.bsdf_fraction_l2)
+                    + &fraction_phrase(opts.bsdf_fraction_l2, opts.bsdf_fraction_learning)
                     + support_phrase(support_for(m, opts))
             };
             format!("{}: {nee}, roulette {rr}{training}{cosine}", method_name(m))

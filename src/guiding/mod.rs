@@ -12,6 +12,8 @@
 //! - [`sdtree`]: the spatial binary tree whose leaves own quadtree pairs;
 //! - [`record`]: per-thread record buffers and their deterministic merge;
 //! - [`adam`]: the learned BSDF-sampling fraction;
+//! - [`moment_grid`]: a fraction chosen from a grid by the estimator's
+//!   second moment, for α or the share (optional);
 //! - [`adrrs`]: adjoint-driven Russian roulette;
 //! - [`schedule`]: the training schedule;
 //! - [`combine`]: the inverse-variance combination of iterations;
@@ -55,6 +57,7 @@ pub mod defensive;
 pub mod descent;
 pub mod fallback_image;
 pub mod guide;
+pub mod moment_grid;
 pub mod pixel_reuse;
 pub mod plane_share;
 pub mod product;

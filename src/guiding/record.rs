@@ -22,7 +22,7 @@
 //! [`ZERO_PDF_EPSILON`] → `rejected_zero_pdf`; negative radiance or product →
 //! `rejected_negative`.
 
-use super::adam::{AdamStats, NonFiniteGradient};
+use super::adam::{AdamStats, FractionLearning, NonFiniteGradient};
 use super::sdtree::SdTree;
 use super::share_learning::{ShareLearning, ShareSample};
 use crate::directional::dir_to_square;
@@ -408,15 +408,9 @@ pub fn record_pass_reusing(
                 ],
             ) in steps.iter()
             {
-                if share_used == 0.0 {
-                    let _: Result<(), NonFiniteGradient> = leaf
-                        .fraction
-                        .step_sample(&adam_cfg, product, bsdf_pdf, guide_pdf, alpha, &mut s);
-                    continue;
-                }
-                // A learned share: α's step sees the guide's mixture at the
-                // current β, and β's the current α, so that both follow the
-                // gradient of one loss at one point.
+                // α learns at the guide's mixture at the current share
+                // (the one used, unless the share is learned), so that α
+                // and β follow one loss at one point.
                 let sample = ShareSample {
                     product,
                     bsdf_pdf,
@@ -425,16 +419,34 @@ pub fn record_pass_reusing(
                     share_used,
                     alpha_used: alpha,
                 };
+                let learns_share = share_used != 0.0;
                 let alpha_now = leaf.fraction.alpha(&adam_cfg);
-                let guide_pdf_now = sample.guide_pdf_at(leaf.share.share()) as f32;
-                let _: Result<(), NonFiniteGradient> = leaf.fraction.step_sample(
-                    &adam_cfg,
-                    product,
-                    bsdf_pdf,
-                    guide_pdf_now,
-                    alpha,
-                    &mut s,
-                );
+                let guide_pdf_now = if learns_share {
+                    sample.guide_pdf_at(leaf.share.share()) as f32
+                } else {
+                    guide_pdf
+                };
+                let _: Result<(), NonFiniteGradient> = match adam_cfg.learning {
+                    FractionLearning::Kl => leaf.fraction.step_sample(
+                        &adam_cfg,
+                        product,
+                        bsdf_pdf,
+                        guide_pdf_now,
+                        alpha,
+                        &mut s,
+                    ),
+                    FractionLearning::VarianceGrid => leaf.fraction.add_to_grid(
+                        product,
+                        bsdf_pdf,
+                        guide_pdf,
+                        guide_pdf_now,
+                        alpha,
+                        &mut s,
+                    ),
+                };
+                if !learns_share {
+                    continue;
+                }
                 let _: Result<(), NonFiniteGradient> = match share_learning {
                     ShareLearning::VarianceGrid => {
                         leaf.share.add_to_grid(&sample, alpha_now, &mut share_stats)
@@ -448,6 +460,9 @@ pub fn record_pass_reusing(
                         &mut share_stats,
                     ),
                 };
+            }
+            if adam_cfg.learning == FractionLearning::VarianceGrid && s.steps > 0 {
+                leaf.fraction.choose_from_grid();
             }
             if share_learning == ShareLearning::VarianceGrid && share_stats.steps > 0 {
                 leaf.share.choose_from_grid();

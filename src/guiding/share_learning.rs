@@ -45,6 +45,7 @@
 //! above, the product would no longer be sampled.
 
 use super::adam::{AdamConfig, AdamMoments, AdamStats, NonFiniteGradient, sigmoid, sigmoid_f32};
+use super::moment_grid::SecondMomentGrid;
 
 /// Smallest learned share: the product's pdf then stays at least 5 % of
 /// radiance guiding's, as α_min keeps 5 % of the BSDF's.
@@ -68,10 +69,6 @@ pub enum ShareLearning {
 /// The shares [`ShareLearning::VarianceGrid`] chooses from.
 pub const SHARE_GRID: [f32; 8] = [0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 0.9];
 
-/// Training samples a leaf needs before its grid estimate replaces the
-/// starting share.
-pub const GRID_MIN_SAMPLES: u64 = 64;
-
 /// One leaf's learned radiance share.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LearnedShare {
@@ -81,10 +78,9 @@ pub struct LearnedShare {
     /// sigmoid(θ) clamped to the bounds, read by every product vertex.
     share: f32,
     moments: AdamMoments,
-    /// Σ (F/p_used)²·p_used/p_k per share of [`SHARE_GRID`], and the
-    /// samples summed ([`ShareLearning::VarianceGrid`]).
-    grid_sums: [f64; SHARE_GRID.len()],
-    grid_samples: u64,
+    /// The second moment per share of [`SHARE_GRID`]
+    /// ([`ShareLearning::VarianceGrid`]).
+    grid: SecondMomentGrid<{ SHARE_GRID.len() }>,
 }
 
 fn logit(p: f32) -> f64 {
@@ -101,8 +97,7 @@ impl LearnedShare {
             prior: theta,
             share: clamp_share(sigmoid_f32(theta as f32)),
             moments: AdamMoments::default(),
-            grid_sums: [0.0; SHARE_GRID.len()],
-            grid_samples: 0,
+            grid: SecondMomentGrid::default(),
         }
     }
 
@@ -117,12 +112,12 @@ impl LearnedShare {
 
     /// Adam steps taken, or samples summed for the grid.
     pub fn steps(&self) -> u64 {
-        self.moments.steps() + self.grid_samples
+        self.moments.steps() + self.grid.samples()
     }
 
     /// The grid's estimates of ∫F²/p_k (unnormalised), once it has samples.
     pub fn grid_second_moments(&self) -> Option<[f64; SHARE_GRID.len()]> {
-        (self.grid_samples > 0).then(|| self.grid_sums.map(|m| m / self.grid_samples as f64))
+        self.grid.second_moments()
     }
 
     /// Adds one recorded sample of a vertex that mixed to the grid's sums,
@@ -135,41 +130,33 @@ impl LearnedShare {
         alpha_now: f32,
         stats: &mut AdamStats,
     ) -> Result<(), NonFiniteGradient> {
-        let p_used = sample.used_pdf();
         let usable = sample.is_finite()
             && alpha_now.is_finite()
             && sample.share_used > 0.0
-            && sample.share_used < 1.0
-            && p_used > 0.0;
-        let weight = sample.product as f64 * sample.product as f64 * p_used;
+            && sample.share_used < 1.0;
         let a = alpha_now as f64;
-        let terms = SHARE_GRID.map(|b| {
-            let p = a * sample.bsdf_pdf as f64 + (1.0 - a) * sample.guide_pdf_at(b);
-            if weight == 0.0 { 0.0 } else { weight / p }
-        });
-        if !(usable && terms.iter().all(|t| t.is_finite() && *t >= 0.0)) {
+        let added = usable
+            && self
+                .grid
+                .add(sample.product as f64, sample.used_pdf(), |k| {
+                    a * sample.bsdf_pdf as f64 + (1.0 - a) * sample.guide_pdf_at(SHARE_GRID[k])
+                });
+        if !added {
             stats.rejected_non_finite += 1;
             return Err(NonFiniteGradient);
         }
-        for (sum, t) in self.grid_sums.iter_mut().zip(terms) {
-            *sum += t;
-        }
-        self.grid_samples += 1;
         stats.steps += 1;
         Ok(())
     }
 
     /// Takes the grid's share of least estimated second moment, once the
-    /// leaf has [`GRID_MIN_SAMPLES`]; the first of equals.
+    /// leaf has [`super::moment_grid::GRID_MIN_SAMPLES`]; the first of
+    /// equals.
     pub fn choose_from_grid(&mut self) {
-        if self.grid_samples < GRID_MIN_SAMPLES {
-            return;
+        if let Some(best) = self.grid.least() {
+            self.share = SHARE_GRID[best];
+            self.theta = logit(self.share);
         }
-        let best = (0..SHARE_GRID.len())
-            .min_by(|&i, &j| self.grid_sums[i].total_cmp(&self.grid_sums[j]))
-            .unwrap_or(0);
-        self.share = SHARE_GRID[best];
-        self.theta = logit(self.share);
     }
 
     /// One Adam step on one recorded sample of a vertex that mixed, at the

@@ -68,6 +68,8 @@ pub struct GuidingStats {
     pub adam_rejected: u64,
     /// λ of the BSDF fraction's L2 term (`--bsdf-fraction-l2`).
     pub adam_l2: f64,
+    /// How the leaves learned their BSDF fraction (`--bsdf-fraction-learning`).
+    pub bsdf_fraction_learning: super::adam::FractionLearning,
     /// The product's learned radiance shares (all zero when not learned).
     pub learned_shares: super::share_learning::LearnedShareSummary,
     /// Iterations left out of the final image because their variance was
@@ -133,6 +135,7 @@ pub fn render_guided<M: WeightModel>(
             .unwrap_or_else(|| super::sdtree::default_split_threshold(w * h)),
         adam: AdamConfig {
             l2: opts.bsdf_fraction_l2.unwrap_or(AdamConfig::default().l2),
+            learning: opts.bsdf_fraction_learning,
             ..AdamConfig::default()
         },
         learned_radiance_share: opts
@@ -456,6 +459,7 @@ pub fn render_guided<M: WeightModel>(
         adam_steps: records.adam.steps,
         adam_rejected: records.adam.rejected_non_finite,
         adam_l2: tree.config.adam.l2,
+        bsdf_fraction_learning: tree.config.adam.learning,
         learned_shares: if tree.config.learned_radiance_share.is_some() {
             super::share_learning::LearnedShareSummary::of(
                 tree.leaves().iter().map(|l| &l.share),

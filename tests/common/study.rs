@@ -50,6 +50,7 @@ pub fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
         radiance_share: ltcguide::guiding::defensive::RadianceShare::default(),
         guide_support: ltcguide::guiding::support::GuideSupport::Sphere,
         bsdf_fraction_l2: None,
+        bsdf_fraction_learning: ltcguide::guiding::adam::FractionLearning::Kl,
         side_by_side: false,
         use_plan: true,
         progress: false,
