@@ -236,6 +236,29 @@ fn attribution_pairs_differ_only_in_the_method() {
     let off_half = |a: (f64, f64)| [(a.0 - 0.5).abs(), (a.1 - 0.5).abs()];
     assert!(off_half(held).iter().all(|&d| d < 1e-3), "{held:?}");
     assert!(off_half(free).iter().all(|&d| d > 3e-3), "{free:?}");
+
+    // `--bsdf-fraction-learning variance-grid` reaches both methods' learned
+    // fractions and the header, while the fixed-fraction factor still runs
+    // (a fixed α learns nothing, whichever learning the run names).
+    let opts = AttributionOptions {
+        seeds: 1,
+        spp: 32,
+        bsdf_fraction_learning: FractionLearning::VarianceGrid,
+        ..options(&glossy, false)
+    };
+    let out = run_attribution(&glossy, &opts).unwrap();
+    assert!(
+        out.markdown
+            .contains("NEE off, BSDF fraction learned by variance-grid,"),
+        "{}",
+        out.markdown
+    );
+    assert!(
+        out.markdown
+            .contains("| variance per sample, BSDF fraction fixed at 0.2 |"),
+        "{}",
+        out.markdown
+    );
 }
 
 /// Pixels are classed by the floor's material as the product treats it:

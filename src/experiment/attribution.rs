@@ -517,8 +517,10 @@ pub fn run_attribution(
         alpha.push((p.mean_alpha(scene), r.mean_alpha(scene)));
 
         say("product and radiance, fixed BSDF fraction", seed);
+        // A fixed fraction learns nothing, whichever learning the run names.
         let with_fraction = |m| RenderOptions {
             bsdf_fraction: Some(opts.guide_fraction),
+            bsdf_fraction_learning: crate::guiding::adam::FractionLearning::Kl,
             ..base(m, seed)
         };
         let (pf, rf) = side_by_side(
