@@ -488,19 +488,11 @@ mod tests {
                 .unwrap();
         }
         let estimate = fraction.grid_second_moments().unwrap();
-        for k in 0..FRACTION_GRID.len() {
-            assert!(
-                (estimate[k] - exact[k]).abs() < 0.02 * exact[k],
-                "α {}: {} against {}",
-                FRACTION_GRID[k],
-                estimate[k],
-                exact[k]
-            );
-        }
-        let least = (0..FRACTION_GRID.len())
-            .min_by(|&i, &j| exact[i].total_cmp(&exact[j]))
-            .unwrap();
-        assert!(least > 0 && least < FRACTION_GRID.len() - 1, "{least}");
+        let least = crate::guiding::moment_grid::assert_estimates_and_interior_least(
+            &estimate,
+            &exact,
+            &FRACTION_GRID,
+        );
         // α still where it started until the grid chooses.
         let cfg = AdamConfig::default();
         assert_eq!(fraction.alpha(&cfg), 0.5);

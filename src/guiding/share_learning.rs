@@ -426,20 +426,11 @@ mod tests {
             .unwrap();
         }
         let estimate = l.grid_second_moments().unwrap();
-        for k in 0..SHARE_GRID.len() {
-            assert!(
-                (estimate[k] - exact[k]).abs() < 0.02 * exact[k],
-                "β {}: {} against {}",
-                SHARE_GRID[k],
-                estimate[k],
-                exact[k]
-            );
-        }
-        let least = (0..SHARE_GRID.len())
-            .min_by(|&i, &j| exact[i].total_cmp(&exact[j]))
-            .unwrap();
-        // The example's optimum lies inside the grid, not at a bound.
-        assert!(least > 0 && least < SHARE_GRID.len() - 1, "{least}");
+        let least = crate::guiding::moment_grid::assert_estimates_and_interior_least(
+            &estimate,
+            &exact,
+            &SHARE_GRID,
+        );
         l.choose_from_grid();
         assert_eq!(l.share(), SHARE_GRID[least]);
         assert_eq!(stats.steps, n);
