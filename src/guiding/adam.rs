@@ -469,13 +469,9 @@ mod tests {
         let mut stats = AdamStats::default();
         let mut rng = crate::sampling::Rng::new(5, 9);
         let n = 200_000;
+        let draws = crate::sampling::Distribution1D::new(&[0, 1, 2, 3].map(|i| p_used(i) as f32));
         for _ in 0..n {
-            let u = rng.next_f32() as f64;
-            let (mut i, mut cdf) = (0, p_used(0));
-            while u >= cdf && i < 3 {
-                i += 1;
-                cdf += p_used(i);
-            }
+            let (i, _, _) = draws.sample_discrete(rng.next_f32());
             fraction
                 .add_to_grid(
                     (F[i] / p_used(i)) as f32,

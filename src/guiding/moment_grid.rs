@@ -130,15 +130,9 @@ mod tests {
         let used = 0.5;
         let mut grid = SecondMomentGrid::<5>::default();
         let mut rng = crate::sampling::Rng::new(11, 5);
+        let draws = crate::sampling::Distribution1D::new(&[0, 1, 2].map(|i| mix(used, i) as f32));
         for n in 0..100_000u64 {
-            let u = rng.next_f32() as f64;
-            let i = if u < mix(used, 0) {
-                0
-            } else if u < mix(used, 0) + mix(used, 1) {
-                1
-            } else {
-                2
-            };
+            let (i, _, _) = draws.sample_discrete(rng.next_f32());
             let p_used = mix(used, i);
             assert!(grid.add(F[i] / p_used, p_used, |k| mix(WEIGHTS[k], i)));
             if n + 1 < GRID_MIN_SAMPLES {

@@ -410,14 +410,11 @@ mod tests {
         let mut stats = AdamStats::default();
         let mut rng = crate::sampling::Rng::new(7, 3);
         let n = 200_000;
+        let draws = crate::sampling::Distribution1D::new(
+            &[0, 1, 2, 3].map(|i| mixture(alpha_used as f64, share_used as f64, i) as f32),
+        );
         for _ in 0..n {
-            let u = rng.next_f32() as f64;
-            let mut i = 0;
-            let mut cdf = mixture(alpha_used as f64, share_used as f64, 0);
-            while u >= cdf && i < 3 {
-                i += 1;
-                cdf += mixture(alpha_used as f64, share_used as f64, i);
-            }
+            let (i, _, _) = draws.sample_discrete(rng.next_f32());
             l.add_to_grid(
                 &drawn(F_GRID[i], i, alpha_used, share_used),
                 alpha,
