@@ -9,8 +9,10 @@ use common::study::{compare_options, flat_reference, settings, tiny};
 use ltcguide::experiment::compare::{CompareOptions, run_compare};
 use ltcguide::experiment::cost::{COST_CSV, COST_HEADING, parse_cost_csv};
 use ltcguide::experiment::curves::{CSV_HEADER, parse_csv};
-use ltcguide::film::exr_io::write_rgb;
+use ltcguide::experiment::summary_text::FINAL_ERRORS_HEADER;
+use ltcguide::film::exr_io::{read_image, write_rgb};
 use ltcguide::film::image::Image;
+use ltcguide::film::metrics::{relmse, relmse_trimmed};
 use ltcguide::guiding::trial::FALLBACK_IMAGE;
 use ltcguide::integrator::path::RouletteMode;
 use ltcguide::render::{Budget, Method, RenderOptions, TimeBase, render};
@@ -76,6 +78,12 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
                 r.iter()
                     .all(|x| x.mae.is_finite() && x.relmse.is_finite() && x.mae >= 0.0)
             );
+            // Leaving the worst pixels out lowers relMSE or keeps it (they
+            // are the largest terms), and every snapshot has the figure.
+            for x in &r {
+                let t = x.relmse_trimmed.expect("every row has a trimmed relMSE");
+                assert!(t > 0.0 && t <= x.relmse, "{m}: {t} against {}", x.relmse);
+            }
             // The error falls as samples accumulate: at 8× the samples MAE
             // should be about 1/√8 ≈ 0.35 of the first snapshot's.
             let (first, last) = (r[0], *r.last().unwrap());
@@ -108,6 +116,20 @@ fn compare_writes_well_formed_csv_svg_and_summary() {
     assert!(svg.contains("relMSE") && svg.contains("MAE"));
     let summary = std::fs::read_to_string(dir.join("summary.md")).unwrap();
     assert!(summary.contains("| product |") && summary.contains("Time-to-error speedup"));
+    assert!(summary.contains(FINAL_ERRORS_HEADER), "{summary}");
+    // The trimmed relMSE of a run's last row is the metric of its final
+    // image: the first run's, which compare saves as <method>.exr.
+    for m in ["pt", "radiance", "product"] {
+        let image = read_image(&dir.join(format!("{m}.exr"))).unwrap();
+        let last = rows.iter().rfind(|r| r.method == m && r.run == 0).unwrap();
+        let expected = relmse_trimmed(&image, &reference).unwrap().unwrap();
+        let got = last.relmse_trimmed.unwrap();
+        assert!(
+            (got - expected).abs() <= 1e-6 * expected,
+            "{m}: {got} against {expected}"
+        );
+        assert!(expected < relmse(&image, &reference).unwrap());
+    }
     assert!(summary.contains("threads"));
     // The roulette override reaches the guided methods only, and the
     // summary says what every method ran with.
@@ -198,7 +220,7 @@ fn replot_refuses_a_folder_without_a_comparison() {
     // A CSV without a compare summary beside it: nothing is written.
     std::fs::write(
         dir.join("curves.csv"),
-        format!("{CSV_HEADER}\npt,0,1.0,1,0.1,0.2\n"),
+        format!("{CSV_HEADER}\npt,0,1.0,1,0.1,0.2,0.1\n"),
     )
     .unwrap();
     let out = run_replot(&dir);

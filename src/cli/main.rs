@@ -8,7 +8,7 @@ mod study_commands;
 
 use clap::{Args, Parser, Subcommand};
 use ltcguide::film::exr_io::read_valid_image;
-use ltcguide::film::metrics::{mae, mean_bias, relmse, relmse_tail};
+use ltcguide::film::metrics::{WORST_PIXEL_FRACTION, mae, mean_bias, relmse, relmse_tail};
 use ltcguide::guiding::adam::FractionLearning;
 use ltcguide::guiding::product::CosineLobes;
 use ltcguide::guiding::schedule::TrainingStop;
@@ -294,9 +294,6 @@ fn cmd_fit_ltc(out_dir: PathBuf, resolution: usize, threads: usize) -> Result<()
     println!("summary {}", report.summary_path.display());
     Ok(())
 }
-
-/// The worst pixels `error` reports the relMSE share of: 0.1 %.
-const WORST_PIXEL_FRACTION: f64 = 1e-3;
 
 /// Side of the pixel blocks whose means give `error`'s mean-ratio noise:
 /// large enough that neighbouring blocks' errors are nearly independent,

@@ -17,7 +17,7 @@ use super::summary_text::{
 };
 use crate::film::exr_io::write_rgb;
 use crate::film::image::Image;
-use crate::film::metrics::{mae, relmse};
+use crate::film::metrics::{mae, relmse, relmse_trimmed};
 use crate::film::png_io::{write_png, write_png_rgb8};
 use crate::film::write_atomic;
 use crate::guiding::product::CosineLobes;
@@ -292,6 +292,7 @@ pub fn run_compare(
                     spp: s.spp,
                     mae: mae(&s.image, reference)?,
                     relmse: relmse(&s.image, reference)?,
+                    relmse_trimmed: relmse_trimmed(&s.image, reference)?,
                 });
             }
             rows.push(CurveRow {
@@ -301,6 +302,7 @@ pub fn run_compare(
                 spp: result.stats.spp,
                 mae: mae(&result.image, reference)?,
                 relmse: relmse(&result.image, reference)?,
+                relmse_trimmed: relmse_trimmed(&result.image, reference)?,
             });
             cost_rows.push(CostRow {
                 method: name.clone(),

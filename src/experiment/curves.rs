@@ -11,6 +11,10 @@ pub struct CurveRow {
     pub spp: u32,
     pub mae: f64,
     pub relmse: f64,
+    /// relMSE without the worst 0.1 % of the pixels
+    /// ([`crate::film::metrics::relmse_trimmed`]); `None` in files written
+    /// before the column existed, and where it is undefined.
+    pub relmse_trimmed: Option<f64>,
 }
 
 /// The run numbers the rows hold, in increasing order.
@@ -32,15 +36,24 @@ pub fn methods_in_order(rows: &[CurveRow]) -> Vec<String> {
     methods
 }
 
-pub const CSV_HEADER: &str = "method,run,seconds,spp,mae,relmse";
+pub const CSV_HEADER: &str = "method,run,seconds,spp,mae,relmse,relmse_trimmed";
 
+/// The header of files written before the trimmed relMSE: still read, with
+/// `relmse_trimmed` left `None`.
+const CSV_HEADER_WITHOUT_TRIMMED: &str = "method,run,seconds,spp,mae,relmse";
+
+/// An empty `relmse_trimmed` field stands for `None`.
 pub fn to_csv(rows: &[CurveRow]) -> String {
     let mut s = String::from(CSV_HEADER);
     s.push('\n');
     for r in rows {
+        let trimmed = r
+            .relmse_trimmed
+            .map(|t| format!("{t:.9e}"))
+            .unwrap_or_default();
         let _ = writeln!(
             s,
-            "{},{},{:.6},{},{:.9e},{:.9e}",
+            "{},{},{:.6},{},{:.9e},{:.9e},{trimmed}",
             r.method, r.run, r.seconds, r.spp, r.mae, r.relmse
         );
     }
@@ -48,7 +61,12 @@ pub fn to_csv(rows: &[CurveRow]) -> String {
 }
 
 pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
-    parse_records(text, CSV_HEADER, |l, f| {
+    let header = if text.lines().next() == Some(CSV_HEADER_WITHOUT_TRIMMED) {
+        CSV_HEADER_WITHOUT_TRIMMED
+    } else {
+        CSV_HEADER
+    };
+    parse_records(text, header, |l, f| {
         let num = |s: &str| non_negative_field(s, l);
         Ok(CurveRow {
             method: f[0].to_string(),
@@ -57,6 +75,10 @@ pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
             spp: f[3].parse().map_err(|_| format!("bad spp in '{l}'"))?,
             mae: num(f[4])?,
             relmse: num(f[5])?,
+            relmse_trimmed: match f.get(6) {
+                None | Some(&"") => None,
+                Some(t) => Some(num(t)?),
+            },
         })
     })
 }
@@ -252,12 +274,16 @@ mod tests {
                     spp: 4 * (k + 1),
                     mae: 0.1 / (k + 1) as f64 + run as f64 * 0.01,
                     relmse: 0.2 / (k + 1) as f64,
+                    relmse_trimmed: (k > 0).then_some(0.1 / (k + 1) as f64),
                 })
             })
             .collect();
         let back = parse_csv(&to_csv(&rows)).unwrap();
         assert_eq!(back.len(), 6);
         assert!((back[4].mae - rows[4].mae).abs() < 1e-12);
+        // The trimmed relMSE round-trips, a missing one as an empty field.
+        assert_eq!(back[0].relmse_trimmed, None);
+        assert!((back[4].relmse_trimmed.unwrap() - 0.05).abs() < 1e-12);
         let c = mean_curve(&rows, "pt");
         assert_eq!(c.seconds, vec![1.0, 2.0, 3.0]);
         assert!((c.mae[0].0 - 0.105).abs() < 1e-12);
@@ -265,11 +291,23 @@ mod tests {
         assert!((c.mae[0].1 - 0.01 / 2f64.sqrt()).abs() < 1e-12);
         assert!(parse_csv("nope\n").is_err());
         for bad in ["NaN", "inf", "-0.5", "x"] {
-            let text = format!("{CSV_HEADER}\npt,0,1.0,4,{bad},0.1\n");
+            let text = format!("{CSV_HEADER}\npt,0,1.0,4,{bad},0.1,0.1\n");
+            assert!(parse_csv(&text).unwrap_err().contains(bad), "{bad}");
+            let text = format!("{CSV_HEADER}\npt,0,1.0,4,0.1,0.1,{bad}\n");
             assert!(parse_csv(&text).unwrap_err().contains(bad), "{bad}");
         }
+        // Files from before the trimmed column still read, without it; a
+        // row of the other width is refused under either header.
+        let old = "method,run,seconds,spp,mae,relmse\npt,0,1.0,4,0.1,0.2\n";
+        let old_rows = parse_csv(old).unwrap();
+        assert_eq!(
+            (old_rows[0].relmse, old_rows[0].relmse_trimmed),
+            (0.2, None)
+        );
+        assert!(parse_csv("method,run,seconds,spp,mae,relmse\npt,0,1.0,4,0.1,0.2,0.1\n").is_err());
+        assert!(parse_csv(&format!("{CSV_HEADER}\npt,0,1.0,4,0.1,0.2\n")).is_err());
         // Sparse run ids are runs like any other.
-        let sparse = format!("{CSV_HEADER}\npt,4000000000,1.0,4,0.1,0.2\npt,7,1.0,4,0.3,0.4\n");
+        let sparse = format!("{CSV_HEADER}\npt,4000000000,1.0,4,0.1,0.2,\npt,7,1.0,4,0.3,0.4,\n");
         let c = mean_curve(&parse_csv(&sparse).unwrap(), "pt");
         assert!((c.mae[0].0 - 0.2).abs() < 1e-12, "{:?}", c.mae);
     }
@@ -282,6 +320,7 @@ mod tests {
             spp: 1,
             mae: error,
             relmse: error,
+            relmse_trimmed: Some(error),
         }
     }
 

@@ -8,9 +8,9 @@ use super::cost::{COST_CSV, COST_HEADING, cost_coverage_note, cost_section, pars
 use super::curves::{MeanCurve, mean_curve, methods_in_order, parse_csv, run_numbers};
 use super::plot::curves_svg;
 use super::summary_text::{
-    PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title, final_errors_table,
-    runs_phrase, runs_phrase_span, speedup_section, summary_items, summary_time_base,
-    time_axis_label,
+    FINAL_ERRORS_HEADER_START, PLAN_HEADING, SPEEDUP_HEADING, SUMMARY_TITLE_SUFFIX, curves_title,
+    final_errors_table, runs_phrase, runs_phrase_span, speedup_section, summary_items,
+    summary_time_base, time_axis_label,
 };
 use crate::film::write_atomic;
 use std::path::Path;
@@ -118,9 +118,10 @@ fn replace_runs_phrase(summary: &str, phrase: &str) -> Result<String, String> {
 /// The summary with its final-errors table (its header line and every
 /// table line after it) replaced by `table`.
 fn replace_table(summary: &str, table: &str) -> Result<String, String> {
-    let header = table.lines().next().unwrap_or_default();
+    // Found by its first columns, so that a table written before the
+    // trimmed relMSE column is replaced too.
     let start = summary
-        .find(&format!("\n{header}\n"))
+        .find(&format!("\n{FINAL_ERRORS_HEADER_START}"))
         .ok_or("no final-errors table")?
         + 1;
     let mut end = start;

@@ -78,14 +78,13 @@ pub fn runs_phrase(rows: &[CurveRow]) -> String {
 }
 
 /// The table of final errors: per method, the mean spp and the mean and
-/// standard deviation over its runs of their last rows' relMSE and MAE.
+/// standard deviation over its runs of their last rows' relMSE, relMSE
+/// without the worst 0.1 % of pixels (— unless every run has it: files
+/// from before it was recorded do not), and MAE.
 pub fn final_errors_table(rows: &[CurveRow], curves: &[MeanCurve]) -> String {
     let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "| method | spp (mean) | relMSE (mean ± std) | MAE (mean ± std) |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|");
+    let _ = writeln!(s, "{FINAL_ERRORS_HEADER}");
+    let _ = writeln!(s, "|---|---|---|---|---|");
     let runs = run_numbers(rows);
     for c in curves {
         let finals: Vec<&CurveRow> = runs
@@ -93,16 +92,32 @@ pub fn final_errors_table(rows: &[CurveRow], curves: &[MeanCurve]) -> String {
             .filter_map(|&run| rows.iter().rfind(|r| r.method == c.method && r.run == run))
             .collect();
         let (rm, rs) = mean_std(&finals.iter().map(|r| r.relmse).collect::<Vec<_>>());
+        let trimmed: Option<Vec<f64>> = finals.iter().map(|r| r.relmse_trimmed).collect();
+        let trimmed = match trimmed {
+            Some(t) if !t.is_empty() => {
+                let (tm, ts) = mean_std(&t);
+                format!("{tm:.4e} ± {ts:.1e}")
+            }
+            _ => "—".to_string(),
+        };
         let (mm, ms) = mean_std(&finals.iter().map(|r| r.mae).collect::<Vec<_>>());
         let spp = finals.iter().map(|r| r.spp as f64).sum::<f64>() / finals.len().max(1) as f64;
         let _ = writeln!(
             s,
-            "| {} | {:.0} | {:.4e} ± {:.1e} | {:.4e} ± {:.1e} |",
+            "| {} | {:.0} | {:.4e} ± {:.1e} | {trimmed} | {:.4e} ± {:.1e} |",
             c.method, spp, rm, rs, mm, ms
         );
     }
     s
 }
+
+/// The final-errors table's header row. The middle relMSE column is
+/// robust to fireflies: a ratio of relMSE that it does not share is a few
+/// pixels' doing.
+pub const FINAL_ERRORS_HEADER: &str = "| method | spp (mean) | relMSE (mean ± std) | relMSE without the worst 0.1 % of pixels | MAE (mean ± std) |";
+
+/// How every version of the final-errors table's header starts.
+pub const FINAL_ERRORS_HEADER_START: &str = "| method | spp (mean) |";
 
 /// What follows the scene's name in the summary's first line, "# NAME…"
 /// (`replot` reads the name back from it).
@@ -209,5 +224,38 @@ mod tests {
         assert!(s.contains("| pt | ≥ 8.00× | ≥ 8.00× |"), "{s}");
         assert!(s.contains("| product | 2.00× | 2.00× |"), "{s}");
         assert!(s.contains("| radiance | 1.00× | 1.00× |"), "{s}");
+    }
+
+    fn final_row(run: u32, relmse: f64, relmse_trimmed: Option<f64>) -> CurveRow {
+        CurveRow {
+            method: "pt".into(),
+            run,
+            seconds: 1.0,
+            spp: 4,
+            mae: 0.5,
+            relmse,
+            relmse_trimmed,
+        }
+    }
+
+    /// The trimmed column averages the runs' figures, and shows — when a
+    /// run lacks one (a file from before the column) rather than a mean
+    /// over the others.
+    #[test]
+    fn the_trimmed_column_needs_every_run() {
+        let curves = [curve("pt", &[1.0], &[1.0])];
+        let rows = [final_row(0, 2.0, Some(1.0)), final_row(1, 4.0, Some(3.0))];
+        let t = final_errors_table(&rows, &curves);
+        assert!(t.starts_with(FINAL_ERRORS_HEADER), "{t}");
+        assert!(
+            t.contains("| pt | 4 | 3.0000e0 ± 1.4e0 | 2.0000e0 ± 1.4e0 | 5.0000e-1 ± 0.0e0 |"),
+            "{t}"
+        );
+        let rows = [final_row(0, 2.0, Some(1.0)), final_row(1, 4.0, None)];
+        let t = final_errors_table(&rows, &curves);
+        assert!(
+            t.contains("| pt | 4 | 3.0000e0 ± 1.4e0 | — | 5.0000e-1 ± 0.0e0 |"),
+            "{t}"
+        );
     }
 }

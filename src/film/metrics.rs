@@ -51,6 +51,23 @@ pub struct RelmseTail {
     pub without_worst: f64,
 }
 
+/// The worst pixels' fraction that `error` reports the relMSE share of, and
+/// that `compare` leaves out of its trimmed relMSE: 0.1 %, the outlier
+/// rule of several path-guiding papers' error tables.
+pub const WORST_PIXEL_FRACTION: f64 = 1e-3;
+
+/// relMSE without the worst [`WORST_PIXEL_FRACTION`] of the pixels, or
+/// `None` where that is undefined (an image of one pixel, or one holding
+/// NaN or Inf, whose plain relMSE then shows it). A comparison's relMSE can
+/// be a few fireflies; this figure says whether the rest of the image
+/// agrees.
+pub fn relmse_trimmed(image: &Image, reference: &Image) -> Result<Option<f64>, String> {
+    check_sizes(image, reference)?;
+    Ok(relmse_tail(image, reference, WORST_PIXEL_FRACTION)
+        .ok()
+        .map(|t| t.without_worst))
+}
+
 /// [`RelmseTail`] for the worst `fraction` of the pixels (at least one,
 /// and at least one left), ranked by their relative squared error summed
 /// over channels.
@@ -263,8 +280,23 @@ mod tests {
         assert!(relmse_tail(&image, &reference, 0.0).is_err());
         assert!(relmse_tail(&image, &reference, f64::NAN).is_err());
         assert!(relmse_tail(&image, &reference, 1.0).is_err());
+        // compare's trimmed relMSE is the tail's rest at 0.1 %.
+        assert_eq!(
+            relmse_trimmed(&image, &reference).unwrap(),
+            Some(tail.without_worst)
+        );
         image.pixels[3] = Vec3::new(f32::NAN, 1.0, 1.0);
         assert!(relmse_tail(&image, &reference, 1e-3).is_err());
+        // Undefined, not an error, for a NaN image (its relMSE shows the
+        // NaN) and for one pixel; a size mismatch is refused.
+        assert_eq!(relmse_trimmed(&image, &reference).unwrap(), None);
+        let one = Image {
+            width: 1,
+            height: 1,
+            pixels: vec![Vec3::ONE],
+        };
+        assert_eq!(relmse_trimmed(&one, &one).unwrap(), None);
+        assert!(relmse_trimmed(&one, &reference).is_err());
     }
 
     /// A deterministic stand-in for zero-mean noise: uniform in [-1, 1).
