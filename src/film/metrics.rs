@@ -62,6 +62,8 @@ pub const WORST_PIXEL_FRACTION: f64 = 1e-3;
 /// be a few fireflies; this figure says whether the rest of the image
 /// agrees.
 pub fn relmse_trimmed(image: &Image, reference: &Image) -> Result<Option<f64>, String> {
+    // Checked here so that the `ok()` below turns only the undefined cases
+    // into `None`, never a size mismatch.
     check_sizes(image, reference)?;
     Ok(relmse_tail(image, reference, WORST_PIXEL_FRACTION)
         .ok()
