@@ -59,39 +59,38 @@ pub fn to_cost_csv(rows: &[CostRow]) -> String {
 
 /// Parses `runs.csv`, with or without its `traced_spp` column.
 pub fn parse_cost_csv(text: &str) -> Result<Vec<CostRow>, String> {
-    let header = if text.lines().next() == Some(COST_CSV_HEADER_WITHOUT_TRACED) {
-        COST_CSV_HEADER_WITHOUT_TRACED
-    } else {
-        COST_CSV_HEADER
-    };
-    parse_records(text, header, |l, f| {
-        let num = |s: &str| non_negative_field(s, l);
-        let spp: u32 = f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?;
-        let traced_spp = match f.get(5) {
-            None | Some(&"") => None,
-            Some(t) => match t.parse::<u32>() {
-                // A run traces at least the samples its image holds.
-                Ok(t) if t >= spp => Some(t),
-                _ => {
-                    return Err(format!(
-                        "bad traced_spp in '{l}' (an integer ≥ spp expected)"
-                    ));
-                }
-            },
-        };
-        Ok(CostRow {
-            method: f[0].to_string(),
-            run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
-            seconds: num(f[2])?,
-            cpu_seconds: if f[3].is_empty() {
-                None
-            } else {
-                Some(num(f[3])?)
-            },
-            spp,
-            traced_spp,
-        })
-    })
+    parse_records(
+        text,
+        &[COST_CSV_HEADER, COST_CSV_HEADER_WITHOUT_TRACED],
+        |l, f| {
+            let num = |s: &str| non_negative_field(s, l);
+            let spp: u32 = f[4].parse().map_err(|_| format!("bad spp in '{l}'"))?;
+            let traced_spp = match f.get(5) {
+                None | Some(&"") => None,
+                Some(t) => match t.parse::<u32>() {
+                    // A run traces at least the samples its image holds.
+                    Ok(t) if t >= spp => Some(t),
+                    _ => {
+                        return Err(format!(
+                            "bad traced_spp in '{l}' (an integer ≥ spp expected)"
+                        ));
+                    }
+                },
+            };
+            Ok(CostRow {
+                method: f[0].to_string(),
+                run: f[1].parse().map_err(|_| format!("bad run in '{l}'"))?,
+                seconds: num(f[2])?,
+                cpu_seconds: if f[3].is_empty() {
+                    None
+                } else {
+                    Some(num(f[3])?)
+                },
+                spp,
+                traced_spp,
+            })
+        },
+    )
 }
 
 /// One method's totals over its runs.

@@ -61,12 +61,7 @@ pub fn to_csv(rows: &[CurveRow]) -> String {
 }
 
 pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
-    let header = if text.lines().next() == Some(CSV_HEADER_WITHOUT_TRIMMED) {
-        CSV_HEADER_WITHOUT_TRIMMED
-    } else {
-        CSV_HEADER
-    };
-    parse_records(text, header, |l, f| {
+    parse_records(text, &[CSV_HEADER, CSV_HEADER_WITHOUT_TRIMMED], |l, f| {
         let num = |s: &str| non_negative_field(s, l);
         Ok(CurveRow {
             method: f[0].to_string(),
@@ -83,18 +78,23 @@ pub fn parse_csv(text: &str) -> Result<Vec<CurveRow>, String> {
     })
 }
 
-/// The rows of a CSV file that must start with `header`, each parsed by
-/// `row` from its line and its fields (as many as the header's; empty
-/// lines are skipped).
+/// The rows of a CSV file that must start with one of `headers` (the
+/// current one first, then those of files written by older builds), each
+/// parsed by `row` from its line and its fields (as many as the file's
+/// header has; empty lines are skipped).
 pub fn parse_records<T>(
     text: &str,
-    header: &str,
+    headers: &[&str],
     row: impl Fn(&str, &[&str]) -> Result<T, String>,
 ) -> Result<Vec<T>, String> {
     let mut lines = text.lines();
-    if lines.next() != Some(header) {
-        return Err(format!("missing or wrong CSV header (expected '{header}')"));
-    }
+    let first = lines.next();
+    let Some(header) = headers.iter().find(|&&h| first == Some(h)) else {
+        return Err(format!(
+            "missing or wrong CSV header (expected '{}')",
+            headers.first().copied().unwrap_or_default()
+        ));
+    };
     let fields = header.split(',').count();
     lines
         .filter(|l| !l.is_empty())
