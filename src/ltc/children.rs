@@ -136,9 +136,15 @@ pub struct GlossyLtc {
     pub orientation: f32,
     /// |det A|, the Jacobian factor of the density.
     pub det_abs: f32,
-    /// orientation/2π ÷ 4: the wide plain-quad kernel's edge sums come from
-    /// vertices of length 2 (its Newton step skips a halving), so 4× F.
-    pub quarter_scale: f32,
+    /// [`super::fast_math::THETA_OVER_SIN_SHORT`] × orientation/2π: the
+    /// short-edge polynomial of the scalar plain-quad kernel with the
+    /// integral's scale folded in, which the wide kernel would otherwise
+    /// spend a multiplication on per node.
+    pub short_poly: [f32; 4],
+    /// `short_poly[k]` ÷ 4^(k+1), exactly (powers of 2): the same
+    /// polynomial for the wide kernel, whose vertices have length 2, so that
+    /// its cosines are 4·d and its cross products 4× the scalar's.
+    pub short_poly_by_4: [f32; 4],
     /// Children at this depth or deeper use density × solid angle: the
     /// first depth where a cell (2π/2^d wide), magnified by ‖A‖_F, is
     /// smaller than the deep cell size.
@@ -176,7 +182,8 @@ impl GlossyLtc {
             quad_rows: super::quad::quad_rows(&a),
             orientation,
             det_abs: det.abs() as f32,
-            quarter_scale: orientation * (0.5 / PI) * 0.25,
+            short_poly: super::quad::short_poly(orientation),
+            short_poly_by_4: super::quad::short_poly_by_4(orientation),
             deep_depth,
             plain_quad_depth: opts
                 .plain_quad_depth
@@ -238,8 +245,7 @@ impl GlossyLtc {
             return self.children_deep(cell);
         }
         if depth >= self.plain_quad_depth {
-            let (f, sides) = quad_children_scalar(self, cell);
-            self.finish_children(cell, f, sides, None)
+            quad_children_scalar(self, cell)
         } else if let Some(n) = self.stokes_nodes_at(depth) {
             super::parallel_quadrature::stokes_children_scalar(self, cell, n)
         } else {
@@ -441,7 +447,8 @@ impl ShadingLtc {
             quad_rows: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             orientation: 1.0,
             det_abs: 1.0,
-            quarter_scale: 0.125 / PI,
+            short_poly: super::quad::short_poly(1.0),
+            short_poly_by_4: super::quad::short_poly_by_4(1.0),
             deep_depth: 64,
             plain_quad_depth: FIRST_PLAIN_QUAD_DEPTH,
             exact_crossing_depth: EXACT_CROSSING_DEPTH,

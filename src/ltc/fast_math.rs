@@ -55,12 +55,21 @@ pub const THETA_OVER_SIN_SHORT: [f32; 4] = [
     -6.8725638092e-02,
 ];
 
-/// θ/sin θ for d ∈ [[`SHORT_EDGE_MIN_COS`], 1], in Estrin's form (one
-/// operation more than Horner's, two steps of latency fewer).
+/// θ/sin θ for d ∈ [[`SHORT_EDGE_MIN_COS`], 1], in Horner's form: the
+/// plain-quad kernels are bound by throughput, where Estrin's form costs
+/// one operation more for two steps of latency fewer.
 #[inline(always)]
 pub fn theta_over_sin_short<T: PolyLane>(d: T) -> T {
-    let c = THETA_OVER_SIN_SHORT.map(T::splat);
-    c[3].fma(d, c[2]).fma(d * d, c[1].fma(d, c[0]))
+    short_polynomial(&THETA_OVER_SIN_SHORT, d)
+}
+
+/// Σ c_k·d^k in Horner's form: [`theta_over_sin_short`] with coefficients
+/// that may carry a factor (the plain-quad kernels fold the lobe's 1/2π
+/// and orientation into them, one multiplication fewer per node).
+#[inline(always)]
+pub fn short_polynomial<T: PolyLane>(coeffs: &[f32; 4], d: T) -> T {
+    let c = coeffs.map(T::splat);
+    c[3].fma(d, c[2]).fma(d, c[1]).fma(d, c[0])
 }
 
 /// Floor of the arguments of [`rsqrt`]: keeps a zero vertex or a zero

@@ -14,13 +14,29 @@
 //! [`NodeGrid`]); F_z and |F|, all the kernels use, do not change under a
 //! turn about the cosine-space z axis (so [`quad_rows`] has a zero); and
 //! past level ~6 every edge of a node is short (so θ/sin θ is a cubic,
-//! [`super::fast_math::theta_over_sin_short`]).
+//! [`super::fast_math::theta_over_sin_short`], whose coefficients then
+//! carry the integral's scale too: [`short_poly`]).
 
 use super::children::{GlossyLtc, HorizonSide, child_grid};
 use super::fast_math::{
-    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_entries, dyadic_sincos, rsqrt,
-    step_sincos, theta_over_sin, theta_over_sin_short,
+    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, THETA_OVER_SIN_SHORT, dyadic_entries,
+    dyadic_sincos, rsqrt, short_polynomial, step_sincos, theta_over_sin,
 };
+use std::f32::consts::PI;
+
+/// The short-edge θ/sin θ cubic times the integral's scale, orientation/2π
+/// (`GlossyLtc::short_poly`): a short node's children are then the sums of
+/// its edge terms as they are.
+pub fn short_poly(orientation: f32) -> [f32; 4] {
+    THETA_OVER_SIN_SHORT.map(|c| c * (orientation * (0.5 / PI)))
+}
+
+/// [`short_poly`] with coefficient k divided by 4^(k+1) (exact: powers of
+/// 2), for the wide kernel's vertices of length 2.
+pub fn short_poly_by_4(orientation: f32) -> [f32; 4] {
+    let c = short_poly(orientation);
+    [c[0] / 4.0, c[1] / 16.0, c[2] / 64.0, c[3] / 256.0]
+}
 use super::polygon::transform_rows;
 use crate::directional::Cell;
 use glam::Vec3;
@@ -160,13 +176,14 @@ pub fn unit_edge(a: Vec3, b: Vec3) -> (Vec3, f32) {
     (c, k)
 }
 
-/// Edge sums (2π·F, winding as built) and horizon sides of the 4 plain-quad
-/// children. Only F_z is formed unless a child straddles the horizon (the
-/// sphere approximation then needs all of F). When every child is above
-/// the horizon and every edge is short (cos θ ≥ [`SHORT_EDGE_MIN_COS`]),
-/// θ/sin θ is the short polynomial; the wide kernel decides alike (its 16
-/// lanes hold the same 12 edges and 9 corners), so both stay bit for bit.
-pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSide; 4]) {
+/// The 4 plain-quad children's integrals, from their edge sums (2π·F,
+/// winding as built) and horizon sides. Only F_z is formed unless a child
+/// straddles the horizon (the sphere approximation then needs all of F).
+/// When every child is above the horizon and every edge is short
+/// (cos θ ≥ [`SHORT_EDGE_MIN_COS`]), θ/sin θ is the short polynomial with
+/// the scale folded in; the wide kernel decides alike (its 16 lanes hold
+/// the same 12 edges and 9 corners), so both stay bit for bit.
+pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let gr = node_grid(cell);
     let pc = grid_columns(&g.quad_rows, &gr);
     let p: [[Vec3; 3]; 3] = std::array::from_fn(|zi| {
@@ -201,7 +218,7 @@ pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSi
         // then differ by a rounding, which the children's sum does not see
         // at f32 precision.
         let cz = |a: Vec3, b: Vec3| a.x.mul_add(b.y, -(a.y * b.x));
-        let sums = std::array::from_fn(|k| {
+        return std::array::from_fn(|k| {
             let (iu, iv) = (k & 1, k >> 1);
             let c = [p[iu][iv], p[iu][iv + 1], p[iu + 1][iv + 1], p[iu + 1][iv]];
             let d = [
@@ -210,11 +227,11 @@ pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSi
                 pe[iu + 1][iv].1,
                 me[iv][iu].1,
             ];
-            let e: [f32; 4] =
-                std::array::from_fn(|e| cz(c[e], c[(e + 1) % 4]) * theta_over_sin_short(d[e]));
-            Vec3::new(0.0, 0.0, (e[0] + e[1]) + (e[2] + e[3]))
+            let e: [f32; 4] = std::array::from_fn(|e| {
+                cz(c[e], c[(e + 1) % 4]) * short_polynomial(&g.short_poly, d[e])
+            });
+            ((e[0] + e[1]) + (e[2] + e[3])).max(0.0)
         });
-        return (sums, sides);
     }
     let full = sides.contains(&HorizonSide::Crossing);
     let term = |(c, d): (Vec3, f32)| {
@@ -233,5 +250,5 @@ pub fn quad_children_scalar(g: &GlossyLtc, cell: Cell) -> ([Vec3; 4], [HorizonSi
         let e3 = -term(me[iv][iu]);
         (e0 + e1) + (e2 + e3)
     });
-    (sums, sides)
+    g.finish_children(cell, sums, sides, None)
 }

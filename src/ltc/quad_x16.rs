@@ -16,22 +16,24 @@
 //! The kernel is throughput-bound (two independent nodes per call run no
 //! faster per node), so what counts is issue slots on the two ports that
 //! take vector operations while zmm ones are in flight (xmm included): per
-//! node, on the short-edge path, 43 zmm and 16 xmm arithmetic operations
-//! (66 and 17 before this layout), the rest loads. Quantities with 3
-//! distinct values per node (heights) are formed 4 wide and spread by one
-//! permutation, depth-only lane constants and table entries are loaded,
-//! never formed or broadcast from registers, and the vertices are kept at
-//! length 2 to spare the Newton step's halving (powers of 2 are exact, so
-//! the result is still the scalar's bit for bit).
+//! node, on the short-edge path, 42 zmm and 12 narrower arithmetic
+//! operations in the AVX-512 build (66 and 17 before this layout), the
+//! rest loads. Quantities with 3 distinct values per node (heights) are
+//! formed 4 wide and spread by one permutation; depth-only lane constants,
+//! table entries and the lobe's numbers are loaded, never formed or
+//! broadcast from registers; the integral's scale rides in the short-edge
+//! polynomial's coefficients; and the vertices are kept at length 2 to
+//! spare the Newton step's halving (powers of 2 are exact, so the result
+//! is still the scalar's bit for bit).
 
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::{
-    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, THETA_OVER_SIN_SHORT, dyadic_entries,
-    rsqrt_estimate_x16, step_sincos, theta_over_sin_x16,
+    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_entries, rsqrt_estimate_x16, step_sincos,
+    theta_over_sin_x16,
 };
 use super::quad::{POLE_R2_FLOOR, quad_children_scalar};
 use super::simd::{
-    BLOCK_OF_EDGE, block_sums, broadcast_load, broadcast_load4, cross_xy, edge_end_blocks,
+    BLOCK_OF_EDGE, block_sums, broadcast_coeff, broadcast_entry, cross_xy, edge_end_blocks,
     not_ge_mask, shuffle_blocks, splat, spread4, unit_edges_z,
 };
 use crate::directional::Cell;
@@ -132,7 +134,10 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let d = cell.depth + 1;
     let lanes = &DEPTH_LANES[d as usize];
     // `u` (< 2^24, so exact in f32) converted lane-wise: see
-    // `heights_and_radii` on why not a scalar conversion.
+    // `heights_and_radii` on why not a scalar conversion. (Converting it
+    // straight from memory spares a shuffle, 1.5–3 % of the kernel bench,
+    // but the API's callers hold the cell in registers: the round trip
+    // through the stack made levels 6–8 4–5 % slower there, session 57.)
     let ix = i32x4::splat(cell.ix as i32).round_float();
     let m = ix.mul_add(f32x4::splat(lanes.four_h), f32x4::from(lanes.two_h_j));
     let zq = m - f32x4::splat(1.0);
@@ -151,12 +156,17 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     // P(φ) + cot θ·A·ẑ, as the scalar `grid_columns` and `unit_grid_vertex`
     // (the first of the quad rows has no z entry).
     let rw = &g.quad_rows;
-    let at = |i: usize, j: usize| broadcast_load(&rw[i][j]);
-    let p = |i: usize| at(i, 1).mul_add(s, at(i, 0) * c);
+    let p = |a0: f32x16, a1: f32x16| a1.mul_add(s, a0 * c);
     let t = [
-        p(0),
-        cot.mul_add(at(1, 2), p(1)),
-        cot.mul_add(at(2, 2), p(2)),
+        p(broadcast_entry::<0, 0>(rw), broadcast_entry::<0, 1>(rw)),
+        cot.mul_add(
+            broadcast_entry::<1, 2>(rw),
+            p(broadcast_entry::<1, 0>(rw), broadcast_entry::<1, 1>(rw)),
+        ),
+        cot.mul_add(
+            broadcast_entry::<2, 2>(rw),
+            p(broadcast_entry::<2, 0>(rw), broadcast_entry::<2, 1>(rw)),
+        ),
     ];
     let n2 = t[2].mul_add(
         t[2],
@@ -174,19 +184,8 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
 #[cold]
 #[inline(never)]
 fn past_the_tables(g: &GlossyLtc, depth: u32, ix: u32, iy: u32) -> [f32; 4] {
-    let cell = Cell { depth, ix, iy };
-    let (f, sides) = quad_children_scalar(g, cell);
-    g.finish_children(cell, f, sides, None)
+    quad_children_scalar(g, Cell { depth, ix, iy })
 }
-
-/// [`THETA_OVER_SIN_SHORT`] for the cosine times 4 (exact powers of 2, so
-/// every step of the polynomial is the scalar's times a power of 2 exactly).
-const SHORT_BY_4: [f32; 4] = [
-    THETA_OVER_SIN_SHORT[0],
-    THETA_OVER_SIN_SHORT[1] / 4.0,
-    THETA_OVER_SIN_SHORT[2] / 16.0,
-    THETA_OVER_SIN_SHORT[3] / 64.0,
-];
 
 /// The 4 child integrals of a node whose children are plain quads.
 #[inline]
@@ -202,14 +201,17 @@ pub fn quad_children_x16(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let long = not_ge_mask(d4, 4.0 * SHORT_EDGE_MIN_COS);
     if below | long == 0 {
         // Every child above the horizon and every edge short (the scalar
-        // kernel's `short_node`): F_z is the integral, with 4·(a×b)_z fused.
+        // kernel's `short_node`): F_z is the integral, with 4·(a×b)_z fused
+        // and the scale in the polynomial. Each of its steps is the
+        // scalar's ÷ a power of 2 exactly (cosines 4·d, coefficients
+        // ÷ 4^(k+1)), so cz4·k is the scalar's cz·k bit for bit.
         let cz4 = a[0].mul_add(b[1], -(a[1] * b[0]));
-        let c = SHORT_BY_4.map(splat);
-        let k = c[3]
-            .mul_add(d4, c[2])
-            .mul_add(d4 * d4, c[1].mul_add(d4, c[0]));
-        let f = block_sums(cz4 * k) * broadcast_load4(&g.quarter_scale);
-        return f.fast_max(f32x4::splat(0.0)).to_array();
+        let c = &g.short_poly_by_4;
+        let k = broadcast_coeff::<3>(c)
+            .mul_add(d4, broadcast_coeff::<2>(c))
+            .mul_add(d4, broadcast_coeff::<1>(c))
+            .mul_add(d4, broadcast_coeff::<0>(c));
+        return block_sums(cz4 * k).fast_max(f32x4::splat(0.0)).to_array();
     }
     if below == 0 {
         let cz4 = a[0] * b[1] - a[1] * b[0];

@@ -354,6 +354,63 @@ pub fn broadcast_load(p: &f32) -> f32x16 {
     }
 }
 
+/// `rows[I][J]` in all 16 lanes: [`broadcast_load`] addressed as the row
+/// array plus a constant displacement, so that the entries of one array
+/// share one address register (LLVM otherwise forms each entry's address
+/// with its own `lea`, an integer micro-op that may take a vector port).
+#[inline(always)]
+pub fn broadcast_entry<const I: usize, const J: usize>(rows: &[[f32; 3]; 3]) -> f32x16 {
+    const { assert!(I < 3 && J < 3) };
+    #[cfg(target_feature = "avx512f")]
+    {
+        let v: std::arch::x86_64::__m512;
+        // SAFETY: `rows` is a valid reference to 9 contiguous f32 and the
+        // displacement 4·(3I + J) < 36 (the assertion above) addresses one
+        // of them; avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            std::arch::asm!(
+                "vbroadcastss {v}, dword ptr [{p} + {off}]",
+                v = out(zmm_reg) v,
+                p = in(reg) rows,
+                off = const 4 * (3 * I + J),
+                options(pure, readonly, nostack, preserves_flags)
+            );
+            std::mem::transmute(v)
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        f32x16::splat(rows[I][J])
+    }
+}
+
+/// `c[I]` in all 16 lanes, addressed as [`broadcast_entry`] addresses.
+#[inline(always)]
+pub fn broadcast_coeff<const I: usize>(c: &[f32; 4]) -> f32x16 {
+    const { assert!(I < 4) };
+    #[cfg(target_feature = "avx512f")]
+    {
+        let v: std::arch::x86_64::__m512;
+        // SAFETY: `c` is a valid reference to 4 contiguous f32 and the
+        // displacement 4·I < 16 (the assertion above) addresses one of
+        // them; avx512f is enabled at compile time (the cfg above).
+        unsafe {
+            std::arch::asm!(
+                "vbroadcastss {v}, dword ptr [{p} + {off}]",
+                v = out(zmm_reg) v,
+                p = in(reg) c,
+                off = const 4 * I,
+                options(pure, readonly, nostack, preserves_flags)
+            );
+            std::mem::transmute(v)
+        }
+    }
+    #[cfg(not(target_feature = "avx512f"))]
+    {
+        f32x16::splat(c[I])
+    }
+}
+
 /// [`broadcast_load`] into 4 lanes.
 #[inline(always)]
 pub fn broadcast_load4(p: &f32) -> wide::f32x4 {
@@ -473,5 +530,41 @@ pub fn lane_sums4(v: [f32x16; 4]) -> wide::f32x4 {
             let w: [f32; 4] = std::array::from_fn(|i| (a[i] + a[i + 8]) + (a[i + 4] + a[i + 12]));
             (w[0] + w[2]) + (w[1] + w[3])
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The constant-displacement loads read the entry their indices name,
+    /// in every lane (a wrong displacement would read a neighbour).
+    #[test]
+    fn broadcast_helpers_read_the_named_entry() {
+        let rows = [[1.5f32, -2.0, 3.25], [4.0, 5.5, -6.0], [7.0, 8.125, 9.0]];
+        let got = [
+            broadcast_entry::<0, 0>(&rows),
+            broadcast_entry::<0, 1>(&rows),
+            broadcast_entry::<0, 2>(&rows),
+            broadcast_entry::<1, 0>(&rows),
+            broadcast_entry::<1, 1>(&rows),
+            broadcast_entry::<1, 2>(&rows),
+            broadcast_entry::<2, 0>(&rows),
+            broadcast_entry::<2, 1>(&rows),
+            broadcast_entry::<2, 2>(&rows),
+        ];
+        for (i, v) in got.iter().enumerate() {
+            assert_eq!(v.to_array(), [rows[i / 3][i % 3]; 16], "entry {i}");
+        }
+        let c = [0.25f32, -1.0, 3.0, 1e-3];
+        let got = [
+            broadcast_coeff::<0>(&c),
+            broadcast_coeff::<1>(&c),
+            broadcast_coeff::<2>(&c),
+            broadcast_coeff::<3>(&c),
+        ];
+        for (i, v) in got.iter().enumerate() {
+            assert_eq!(v.to_array(), [c[i]; 16], "coefficient {i}");
+        }
     }
 }
