@@ -354,6 +354,36 @@ pub fn broadcast_load(p: &f32) -> f32x16 {
     }
 }
 
+/// The f32 at `$base` plus `$offset` bytes (a constant expression) in all
+/// 16 lanes, by a broadcast load addressed with a constant displacement,
+/// or `$fallback` splat without AVX-512. The caller bounds the offset
+/// within the array `$base` references.
+macro_rules! broadcast_displaced {
+    ($base:expr, $offset:expr, $fallback:expr) => {{
+        #[cfg(target_feature = "avx512f")]
+        {
+            let v: std::arch::x86_64::__m512;
+            // SAFETY: `$base` is a valid reference and the caller's
+            // assertion keeps the displacement inside its array; the
+            // instruction reads 4 bytes; avx512f is enabled at compile time.
+            unsafe {
+                std::arch::asm!(
+                    "vbroadcastss {v}, dword ptr [{p} + {off}]",
+                    v = out(zmm_reg) v,
+                    p = in(reg) $base,
+                    off = const $offset,
+                    options(pure, readonly, nostack, preserves_flags)
+                );
+                std::mem::transmute::<std::arch::x86_64::__m512, f32x16>(v)
+            }
+        }
+        #[cfg(not(target_feature = "avx512f"))]
+        {
+            f32x16::splat($fallback)
+        }
+    }};
+}
+
 /// `rows[I][J]` in all 16 lanes: [`broadcast_load`] addressed as the row
 /// array plus a constant displacement, so that the entries of one array
 /// share one address register (LLVM otherwise forms each entry's address
@@ -361,54 +391,14 @@ pub fn broadcast_load(p: &f32) -> f32x16 {
 #[inline(always)]
 pub fn broadcast_entry<const I: usize, const J: usize>(rows: &[[f32; 3]; 3]) -> f32x16 {
     const { assert!(I < 3 && J < 3) };
-    #[cfg(target_feature = "avx512f")]
-    {
-        let v: std::arch::x86_64::__m512;
-        // SAFETY: `rows` is a valid reference to 9 contiguous f32 and the
-        // displacement 4·(3I + J) < 36 (the assertion above) addresses one
-        // of them; avx512f is enabled at compile time (the cfg above).
-        unsafe {
-            std::arch::asm!(
-                "vbroadcastss {v}, dword ptr [{p} + {off}]",
-                v = out(zmm_reg) v,
-                p = in(reg) rows,
-                off = const 4 * (3 * I + J),
-                options(pure, readonly, nostack, preserves_flags)
-            );
-            std::mem::transmute(v)
-        }
-    }
-    #[cfg(not(target_feature = "avx512f"))]
-    {
-        f32x16::splat(rows[I][J])
-    }
+    broadcast_displaced!(rows, 4 * (3 * I + J), rows[I][J])
 }
 
 /// `c[I]` in all 16 lanes, addressed as [`broadcast_entry`] addresses.
 #[inline(always)]
 pub fn broadcast_coeff<const I: usize>(c: &[f32; 4]) -> f32x16 {
     const { assert!(I < 4) };
-    #[cfg(target_feature = "avx512f")]
-    {
-        let v: std::arch::x86_64::__m512;
-        // SAFETY: `c` is a valid reference to 4 contiguous f32 and the
-        // displacement 4·I < 16 (the assertion above) addresses one of
-        // them; avx512f is enabled at compile time (the cfg above).
-        unsafe {
-            std::arch::asm!(
-                "vbroadcastss {v}, dword ptr [{p} + {off}]",
-                v = out(zmm_reg) v,
-                p = in(reg) c,
-                off = const 4 * I,
-                options(pure, readonly, nostack, preserves_flags)
-            );
-            std::mem::transmute(v)
-        }
-    }
-    #[cfg(not(target_feature = "avx512f"))]
-    {
-        f32x16::splat(c[I])
-    }
+    broadcast_displaced!(c, 4 * I, c[I])
 }
 
 /// [`broadcast_load`] into 4 lanes.
