@@ -22,6 +22,9 @@ use super::fast_math::{
     DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, THETA_OVER_SIN_SHORT, dyadic_entries,
     dyadic_sincos, rsqrt, short_polynomial, step_sincos, theta_over_sin,
 };
+use super::polygon::transform_rows;
+use crate::directional::Cell;
+use glam::Vec3;
 use std::f32::consts::PI;
 
 /// The short-edge θ/sin θ cubic times the integral's scale, orientation/2π
@@ -37,9 +40,6 @@ pub fn short_poly_by_4(orientation: f32) -> [f32; 4] {
     let c = short_poly(orientation);
     [c[0] / 4.0, c[1] / 16.0, c[2] / 64.0, c[3] / 256.0]
 }
-use super::polygon::transform_rows;
-use crate::directional::Cell;
-use glam::Vec3;
 
 /// R·A by rows (f32), R the turn about the cosine-space z axis that makes
 /// the first row's z entry exactly 0: the corner map then needs no
