@@ -327,36 +327,12 @@ pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
     }
 }
 
-/// `*p` in all 16 lanes by a broadcast load (a load-port micro-op, no ALU
-/// slot). Left to itself LLVM merges neighbouring fields of `GlossyLtc`
-/// into 8-byte loads and splits them again with shifts and register
-/// broadcasts (two ALU micro-ops each): 7 slots in the plain-quad kernel.
-#[inline(always)]
-pub fn broadcast_load(p: &f32) -> f32x16 {
-    #[cfg(target_feature = "avx512f")]
-    {
-        let v: std::arch::x86_64::__m512;
-        // SAFETY: `p` is a valid &f32 and the instruction reads its 4
-        // bytes only; avx512f is enabled at compile time (the cfg above).
-        unsafe {
-            std::arch::asm!(
-                "vbroadcastss {v}, dword ptr [{p}]",
-                v = out(zmm_reg) v,
-                p = in(reg) p,
-                options(pure, readonly, nostack, preserves_flags)
-            );
-            std::mem::transmute(v)
-        }
-    }
-    #[cfg(not(target_feature = "avx512f"))]
-    {
-        f32x16::splat(*p)
-    }
-}
-
 /// The f32 at `$base` plus `$offset` bytes (a constant expression) in all
-/// 16 lanes, by a broadcast load addressed with a constant displacement,
-/// or `$fallback` splat without AVX-512. The caller bounds the offset
+/// 16 lanes, by a broadcast load addressed with a constant displacement
+/// (a load-port micro-op, no ALU slot), or `$fallback` splat without
+/// AVX-512. Left to itself LLVM merges neighbouring fields of `GlossyLtc`
+/// into 8-byte loads and splits them again with shifts and register
+/// broadcasts (two ALU micro-ops each). The caller bounds the offset
 /// within the array `$base` references.
 macro_rules! broadcast_displaced {
     ($base:expr, $offset:expr, $fallback:expr) => {{
@@ -384,7 +360,7 @@ macro_rules! broadcast_displaced {
     }};
 }
 
-/// `rows[I][J]` in all 16 lanes: [`broadcast_load`] addressed as the row
+/// `rows[I][J]` in all 16 lanes: a broadcast load addressed as the row
 /// array plus a constant displacement, so that the entries of one array
 /// share one address register (LLVM otherwise forms each entry's address
 /// with its own `lea`, an integer micro-op that may take a vector port).
@@ -399,29 +375,6 @@ pub fn broadcast_entry<const I: usize, const J: usize>(rows: &[[f32; 3]; 3]) -> 
 pub fn broadcast_coeff<const I: usize>(c: &[f32; 4]) -> f32x16 {
     const { assert!(I < 4) };
     broadcast_displaced!(c, 4 * I, c[I])
-}
-
-/// [`broadcast_load`] into 4 lanes.
-#[inline(always)]
-pub fn broadcast_load4(p: &f32) -> wide::f32x4 {
-    #[cfg(target_feature = "avx512f")]
-    {
-        let v: std::arch::x86_64::__m128;
-        // SAFETY: as in `broadcast_load`.
-        unsafe {
-            std::arch::asm!(
-                "vbroadcastss {v}, dword ptr [{p}]",
-                v = out(xmm_reg) v,
-                p = in(reg) p,
-                options(pure, readonly, nostack, preserves_flags)
-            );
-            std::mem::transmute(v)
-        }
-    }
-    #[cfg(not(target_feature = "avx512f"))]
-    {
-        wide::f32x4::splat(*p)
-    }
 }
 
 /// Lanes 1..16 of `v` followed by lane 0 of `next`: each lane's successor
