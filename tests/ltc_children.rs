@@ -219,25 +219,34 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
     println!("x16 vs scalar: {compared} lanes, worst relative difference {worst:.2e}");
 }
 
-/// The wide diffuse kernel (depth ≥ 5: Gauss form factors, F·n or the
-/// sphere clip) against the scalar route, bit for bit, along descents
-/// into the horizon (every child straddles it), into the poles (the rows
-/// that keep the f64 form factors) and into random directions.
+/// The wide diffuse kernels against the scalar routes, bit for bit: the
+/// API's (depth ≥ 5: Gauss form factors, F·n or the sphere clip) and the
+/// guider's centre rule (depth ≥ 2), along descents into the horizon
+/// (every child straddles it), into the poles (the rows that keep the f64
+/// form factors) and into random directions.
 #[test]
 fn wide_diffuse_kernel_equals_scalar_lane_for_lane() {
     let mut rng = Rng::new(77, 4);
-    let opts = LtcOptions::default();
     let mut compared = 0usize;
     let mut straddling = 0usize;
     for trial in 0..200 {
         let frame = random_frame(&mut rng);
-        let s = shading(None, 30.0, &frame, &opts);
+        // The API's form factors from depth 5, and the guider's centre
+        // rule from depth 1 (n·ω⁺/π at the children's centres × Ω).
+        let form_factors = shading(None, 30.0, &frame, &LtcOptions::default());
+        let centres = shading(None, 30.0, &frame, &guiding_ltc_options());
+        let s = if trial % 2 == 0 {
+            &form_factors
+        } else {
+            &centres
+        };
+        let first_depth = if trial % 2 == 0 { 5 } else { 1 };
         let n = frame.n.as_dvec3();
         let tangent = frame.s.as_dvec3();
-        let pole = DVec3::new(0.0, 0.0, if trial % 2 == 0 { 1.0 } else { -1.0 });
+        let pole = DVec3::new(0.0, 0.0, if trial % 4 < 2 { 1.0 } else { -1.0 });
         let random = random_frame(&mut rng).n.as_dvec3();
         for target in [tangent, (tangent + 1e-4 * n).normalize(), pole, random] {
-            for depth in 5..22u32 {
+            for depth in first_depth..22u32 {
                 let cell = path(target, depth);
                 let a = s.child_integrals(cell, ProductKernel::Optimized);
                 let b = s.child_integrals(cell, ProductKernel::Simd);
