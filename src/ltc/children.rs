@@ -529,38 +529,12 @@ impl ShadingLtc {
         guard(d)
     }
 
-    /// The glossy lobe, when the mixture is a cosine lobe and one glossy
-    /// lobe and both take their centre rules for `cell`'s children (the
-    /// guider's plastics below the glossy lobe's switch depth): the wide
-    /// kernel then forms the centres' directions once for both.
-    #[inline]
-    fn both_at_centre_rules(&self, cell: Cell) -> Option<&GlossyLtc> {
-        let depth = cell.depth + 1;
-        let g = &self.glossy[0];
-        (self.diffuse_weight > 0.0
-            && self.glossy_count == 1
-            && depth >= self.diffuse_centre_depth
-            && depth >= g.deep_depth
-            && depth > EXACT_CLIP_DEPTH)
-            .then_some(g)
-    }
-
     /// D_k = ∫_{child k of `cell`} (mixture) dω, k in the order of
     /// [`Cell::child`]. Finite and non-negative.
     pub fn child_integrals(&self, cell: Cell, kernel: ProductKernel) -> [f32; 4] {
         let mut out = [0.0f32; 4];
         if !(self.total > 0.0) {
             return out;
-        }
-        if kernel == ProductKernel::Simd
-            && let Some(g) = self.both_at_centre_rules(cell)
-        {
-            return guard4(children_x16::mixture_centres_x4(
-                self.normal,
-                self.diffuse_weight,
-                g,
-                cell,
-            ));
         }
         if self.diffuse_weight > 0.0 {
             let d = match kernel {

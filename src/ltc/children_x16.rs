@@ -150,12 +150,14 @@ fn centre_directions_x4(cell: Cell) -> [f32x4; 3] {
     [r * c, r * s, z]
 }
 
-/// The glossy lobe's density D(ω) at the directions `w`, lane by lane, with
-/// the scalar [`GlossyLtc::density`]'s operations (0 where the mapped
-/// direction vanishes).
-#[inline(always)]
-fn glossy_density_x4(g: &GlossyLtc, [x, y, z]: [f32x4; 3]) -> f32x4 {
+/// D(centre)·Ω for the 4 children, one per lane of an f32x4, with the
+/// scalar [`GlossyLtc::children_deep`]'s operations. Four lanes, not
+/// sixteen: the call is one chain through a square root and a division,
+/// and with twelve idle lanes on 512-bit registers it took 12.5 ns
+/// against 9.0 ns on 128-bit ones (same process, levels 6–20).
+pub fn children_deep_x4(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let s4 = f32x4::splat;
+    let [x, y, z] = centre_directions_x4(cell);
     // `simd::transform`'s operations, on four lanes.
     let row = |i: usize| {
         let m = &g.rows[i];
@@ -164,63 +166,30 @@ fn glossy_density_x4(g: &GlossyLtc, [x, y, z]: [f32x4; 3]) -> f32x4 {
     let p = [row(0), row(1), row(2)];
     let l2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
     let d = p[2].fast_max(s4(0.0)) * s4(g.det_abs) / (s4(std::f32::consts::PI) * l2 * l2);
-    l2.simd_gt(s4(0.0)).bitselect(d, s4(0.0))
-}
-
-/// The cosine lobe's n·ω⁺ at the directions `w`, times Ω/π, with the
-/// scalar `ShadingLtc::diffuse_centres`' operations: `Vec3::dot`'s order,
-/// (x·x' + y·y') + z·z', no fused products.
-#[inline(always)]
-fn cosine_centres_x4(normal: Vec3, [x, y, z]: [f32x4; 3], omega_over_pi: f32) -> f32x4 {
-    let s4 = f32x4::splat;
-    let dot = x * s4(normal.x) + y * s4(normal.y) + z * s4(normal.z);
-    dot.fast_max(s4(0.0)) * s4(omega_over_pi)
-}
-
-/// D(centre)·Ω for the 4 children, one per lane of an f32x4, with the
-/// scalar [`GlossyLtc::children_deep`]'s operations. Four lanes, not
-/// sixteen: the call is one chain through a square root and a division,
-/// and with twelve idle lanes on 512-bit registers it took 12.5 ns
-/// against 9.0 ns on 128-bit ones (same process, levels 6–20).
-pub fn children_deep_x4(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
+    let ok = l2.simd_gt(s4(0.0));
     let omega = cell_solid_angle(cell.depth + 1);
-    (glossy_density_x4(g, centre_directions_x4(cell)) * f32x4::splat(omega)).to_array()
+    (ok.bitselect(d, s4(0.0)) * s4(omega)).to_array()
 }
 
 /// n·ω⁺/π × Ω at the 4 children's centres, child k in lane k, with the
 /// operations of the scalar `ShadingLtc::diffuse_centres` (so both agree
-/// bit for bit). The guider takes this rule for a plastic's diffuse part
-/// at every level from 2 on, where the scalar route called the centres'
+/// bit for bit): `Vec3::dot`'s order, (x·x' + y·y') + z·z', no fused
+/// products. The guider takes this rule for a plastic's diffuse part at
+/// every level from 2 on, where the scalar route called the centres'
 /// sines out of line and passed its results through the stack twice: a
-/// third of `child_integrals`' profile samples on staircase. With
-/// [`mixture_centres_x4`], `guiding/product_pdf` takes 0.92× its time and
-/// `product_sample` 0.98×; whole renders, where the memo and the lobes
-/// shared by neighbouring pixels spare most descents, did not measurably
-/// change (session 58).
+/// third of `child_integrals`' profile samples on staircase. Four wide,
+/// `guiding/product_pdf` takes 0.91× its time and `product_sample` 0.97×;
+/// whole renders, where the memo and the lobes shared by neighbouring
+/// pixels spare most descents, did not measurably change (session 58).
+/// Forming the centres' directions once for this and a glossy lobe at its
+/// own centre rule gained nothing more in those benches.
 #[inline]
 pub fn diffuse_centres_x4(normal: Vec3, cell: Cell) -> [f32; 4] {
-    let omega_over_pi = cell_solid_angle(cell.depth + 1) / std::f32::consts::PI;
-    cosine_centres_x4(normal, centre_directions_x4(cell), omega_over_pi).to_array()
-}
-
-/// A cosine lobe of weight `diffuse_weight` and a glossy lobe, both at
-/// their centre rules: w_d·(n·ω⁺/π·Ω) + w_g·(D(ω)·Ω) with the centres'
-/// directions formed once, bit for bit what `ShadingLtc::child_integrals`
-/// sums from [`diffuse_centres_x4`] and [`children_deep_x4`].
-#[inline]
-pub fn mixture_centres_x4(
-    normal: Vec3,
-    diffuse_weight: f32,
-    g: &GlossyLtc,
-    cell: Cell,
-) -> [f32; 4] {
     let s4 = f32x4::splat;
-    let omega = cell_solid_angle(cell.depth + 1);
-    let w = centre_directions_x4(cell);
-    let diffuse = cosine_centres_x4(normal, w, omega / std::f32::consts::PI);
-    let glossy = glossy_density_x4(g, w) * s4(omega);
-    // `child_integrals`' sums: out = 0; out += w_d·d; out += w_g·D.
-    (s4(0.0) + s4(diffuse_weight) * diffuse + s4(g.weight) * glossy).to_array()
+    let omega_over_pi = cell_solid_angle(cell.depth + 1) / std::f32::consts::PI;
+    let [x, y, z] = centre_directions_x4(cell);
+    let dot = x * s4(normal.x) + y * s4(normal.y) + z * s4(normal.z);
+    (dot.fast_max(s4(0.0)) * s4(omega_over_pi)).to_array()
 }
 
 /// Cosine-lobe integrals of the 4 children of a node at depth ≥ 5, child k
@@ -292,15 +261,15 @@ mod tests {
     use crate::sampling::{Rng, square_to_uniform_sphere};
 
     /// Plastic-like mixtures under the guider's options: wherever both
-    /// lobes take their centre rules, the wide kernel's one pass over the
-    /// centres ([`super::mixture_centres_x4`]) gives the scalar route's sum
-    /// bit for bit, and the descents reach such nodes often.
+    /// lobes take their centre rules ([`super::diffuse_centres_x4`] and
+    /// [`super::children_deep_x4`]), the wide kernel's sum is the scalar
+    /// route's bit for bit, and the descents reach such nodes often.
     #[test]
-    fn mixture_centres_equal_the_scalar_sum_bit_for_bit() {
+    fn plastic_centre_rules_equal_the_scalar_sum_bit_for_bit() {
         let table = LtcTable::load_default().unwrap();
         let opts: LtcOptions = guiding_ltc_options();
         let mut rng = Rng::new(58, 1);
-        let (mut fused, mut compared) = (0, 0);
+        let (mut at_centres, mut compared) = (0, 0);
         for trial in 0..120 {
             let lobes = Lobes {
                 diffuse: 0.4,
@@ -328,7 +297,7 @@ mod tests {
                 let a = s.child_integrals(cell, ProductKernel::Optimized);
                 let b = s.child_integrals(cell, ProductKernel::Simd);
                 if depth + 1 >= g.deep_depth.max(2) {
-                    fused += 1;
+                    at_centres += 1;
                     for k in 0..4 {
                         assert!(
                             a[k].to_bits() == b[k].to_bits(),
@@ -341,6 +310,9 @@ mod tests {
                 compared += 1;
             }
         }
-        assert!(fused > compared / 2, "{fused} of {compared} nodes fused");
+        assert!(
+            at_centres > compared / 2,
+            "{at_centres} of {compared} nodes at centre rules"
+        );
     }
 }
