@@ -231,16 +231,15 @@ fn wide_diffuse_kernel_equals_scalar_lane_for_lane() {
     let mut straddling = 0usize;
     for trial in 0..200 {
         let frame = random_frame(&mut rng);
-        // The API's form factors from depth 5, and the guider's centre
-        // rule from depth 1 (n·ω⁺/π at the children's centres × Ω).
-        let form_factors = shading(None, 30.0, &frame, &LtcOptions::default());
-        let centres = shading(None, 30.0, &frame, &guiding_ltc_options());
-        let s = if trial % 2 == 0 {
-            &form_factors
+        // The API's form factors from node depth 5, and the guider's
+        // centre rule (n·ω⁺/π at the children's centres × Ω) from node
+        // depth 1, whose children are at level 2.
+        let (opts, first_depth) = if trial % 2 == 0 {
+            (LtcOptions::default(), 5)
         } else {
-            &centres
+            (guiding_ltc_options(), 1)
         };
-        let first_depth = if trial % 2 == 0 { 5 } else { 1 };
+        let s = shading(None, 30.0, &frame, &opts);
         let n = frame.n.as_dvec3();
         let tangent = frame.s.as_dvec3();
         let pole = DVec3::new(0.0, 0.0, if trial % 4 < 2 { 1.0 } else { -1.0 });
