@@ -179,6 +179,7 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
     let mut rng = Rng::new(99, 3);
     let mut worst = 0.0f64;
     let mut compared = 0usize;
+    let mut plain_quads = 0usize;
     for trial in 0..300 {
         let frame = random_frame(&mut rng);
         let alpha = [1e-3f32, 0.01, 0.1, 0.3, 0.5][trial % 5];
@@ -198,6 +199,18 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
                 let b = children_x16::children_x16(&g, cell, deep);
                 // Near-zero children are compared against their node, so that
                 // deep nodes (whole nodes of ~1e-12) are compared too.
+                // The plain-quad kernels perform the same operations lane by
+                // lane (the wide one skipping only exact identities), so
+                // they agree bit for bit.
+                if (opts.plain_quad_depth..deep).contains(&(cell.depth + 1)) {
+                    plain_quads += 1;
+                    assert_eq!(
+                        a.map(f32::to_bits),
+                        b.map(f32::to_bits),
+                        "plain quads at depth {}: scalar {a:?} x16 {b:?}",
+                        cell.depth + 1
+                    );
+                }
                 let node: f64 = a.iter().map(|&v| v as f64).sum();
                 for k in 0..4 {
                     let scale = a[k].abs().max(1e-30) as f64;
@@ -217,6 +230,10 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
         }
     }
     println!("x16 vs scalar: {compared} lanes, worst relative difference {worst:.2e}");
+    assert!(
+        plain_quads > 5000,
+        "{plain_quads} plain-quad nodes compared bit for bit"
+    );
 }
 
 /// The wide diffuse kernels against the scalar routes, bit for bit: the

@@ -268,10 +268,38 @@ pub fn dyadic_entries(n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
     table_entries(&TABLES, n, depth)
 }
 
+/// Whether the low entry of [`dyadic_entries`]`(n, depth)` is exactly
+/// (sin, cos) = (0, 1) for every n: the angles of depths up to the high
+/// table's resolution are multiples of its step, so their low part is 0.
+/// A rotation by that entry, c·1 − 0·s and 0·c + 1·s fused, returns its
+/// operand bit for bit (no operand of the kernels is a signed zero), which
+/// lets the wide plain-quad kernel skip it at those depths.
+#[inline(always)]
+pub const fn dyadic_low_is_identity(depth: u32) -> bool {
+    depth <= TABLE_BITS
+}
+
+/// [`dyadic_entries`] by reference into the tables, for kernels that
+/// broadcast the entries to their lanes straight from memory.
+#[inline(always)]
+pub fn dyadic_entry_refs(n: u64, depth: u32) -> (&'static [f32; 2], &'static [f32; 2]) {
+    debug_assert!(depth <= DYADIC_BITS);
+    table_entry_refs(&TABLES, n, depth)
+}
+
+#[inline(always)]
+fn table_entry_refs(tab: &SinCosTables, n: u64, depth: u32) -> (&[f32; 2], &[f32; 2]) {
+    let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
+    (
+        &tab.hi[t >> TABLE_BITS],
+        &tab.lo[t & ((1 << TABLE_BITS) - 1)],
+    )
+}
+
 #[inline(always)]
 fn table_entries(tab: &SinCosTables, n: u64, depth: u32) -> ([f32; 2], [f32; 2]) {
-    let t = ((n << (DYADIC_BITS - depth)) & ((1 << DYADIC_BITS) - 1)) as usize;
-    (tab.hi[t >> TABLE_BITS], tab.lo[t & ((1 << TABLE_BITS) - 1)])
+    let (hi, lo) = table_entry_refs(tab, n, depth);
+    (*hi, *lo)
 }
 
 #[inline(always)]
@@ -373,6 +401,17 @@ mod tests {
         }
         assert!(worst < 1e-6, "{worst}");
         assert!((rsqrt(2.0) as f64 - 0.5f64.sqrt()).abs() < 2e-7);
+    }
+
+    /// The low entries that [`dyadic_low_is_identity`] calls the identity
+    /// are (0, 1) exactly, and the first depth past it has others.
+    #[test]
+    fn low_entries_are_the_identity_up_to_the_high_tables_resolution() {
+        for depth in 0..=DYADIC_BITS {
+            let nodes = 1u64 << depth;
+            let exact = (0..nodes.min(4096)).all(|n| dyadic_entries(n, depth).1 == [0.0, 1.0]);
+            assert_eq!(exact, dyadic_low_is_identity(depth), "depth {depth}");
+        }
     }
 
     #[test]

@@ -18,7 +18,8 @@
 //! take vector operations while zmm ones are in flight (xmm included): per
 //! node, on the short-edge path, 42 zmm and 12 narrower arithmetic
 //! operations in the AVX-512 build (66 and 17 before this layout), the
-//! rest loads. Quantities with 3 distinct values per node (heights) are
+//! rest loads; 38 zmm down to depth 11, where the azimuths' low table
+//! entry is the identity and its rotation is skipped. Quantities with 3 distinct values per node (heights) are
 //! formed 4 wide and spread by one permutation; depth-only lane constants,
 //! table entries and the lobe's numbers are loaded, never formed or
 //! broadcast from registers; the integral's scale rides in the short-edge
@@ -28,13 +29,13 @@
 
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::{
-    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_entries, rsqrt_estimate_x16, step_sincos,
-    theta_over_sin_x16,
+    DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_entry_refs, dyadic_low_is_identity,
+    rsqrt_estimate_x16, step_sincos, theta_over_sin_x16,
 };
 use super::quad::{POLE_R2_FLOOR, quad_children_scalar};
 use super::simd::{
-    BLOCK_OF_EDGE, block_sums, broadcast_coeff, broadcast_entry, cross_xy, edge_end_blocks,
-    not_ge_mask, shuffle_blocks, splat, spread4, unit_edges_z,
+    BLOCK_OF_EDGE, block_sums, broadcast_coeff, broadcast_entry, broadcast_pair, cross_xy,
+    edge_end_blocks, not_ge_mask, shuffle_blocks, splat, spread4, unit_edges_z,
 };
 use crate::directional::Cell;
 use glam::Vec3;
@@ -148,10 +149,18 @@ fn edge_ends(g: &GlossyLtc, cell: Cell) -> ([f32x16; 3], [f32x16; 3]) {
     let cot = spread4(cot, &START_HEIGHT_INDEX);
     // The scalar `rotate_by_entries`, lane by lane, the entries broadcast
     // from memory: no scalar arithmetic, no register broadcasts.
-    let ([sh, ch], [sl, cl]) = dyadic_entries(2 * cell.iy as u64 + 1, d);
+    let (high, low) = dyadic_entry_refs(2 * cell.iy as u64 + 1, d);
     let (co, so) = (f32x16::from(lanes.cos_off), f32x16::from(lanes.sin_off));
-    let (sh, ch, sl, cl) = (splat(sh), splat(ch), splat(sl), splat(cl));
-    let (ec, es) = (cl.mul_add(co, -(sl * so)), sl.mul_add(co, cl * so));
+    // Down to depth 11 the low entry is exactly the identity, and so is
+    // its rotation: 4 of the kernel's ~42 vector operations spared at the
+    // levels most descents take, with the scalar's values bit for bit.
+    let (ec, es) = if dyadic_low_is_identity(d) {
+        (co, so)
+    } else {
+        let (sl, cl) = (broadcast_pair::<0>(low), broadcast_pair::<1>(low));
+        (cl.mul_add(co, -(sl * so)), sl.mul_add(co, cl * so))
+    };
+    let (sh, ch) = (broadcast_pair::<0>(high), broadcast_pair::<1>(high));
     let (s, c) = (sh.mul_add(ec, ch * es), ch.mul_add(ec, -(sh * es)));
     // P(φ) + cot θ·A·ẑ, as the scalar `grid_columns` and `unit_grid_vertex`
     // (the first of the quad rows has no z entry).

@@ -377,6 +377,14 @@ pub fn broadcast_coeff<const I: usize>(c: &[f32; 4]) -> f32x16 {
     broadcast_displaced!(c, 4 * I, c[I])
 }
 
+/// `pair[J]` in all 16 lanes, by a broadcast load (a table entry read
+/// where it lies, not loaded into a register and broadcast from there).
+#[inline(always)]
+pub fn broadcast_pair<const J: usize>(pair: &[f32; 2]) -> f32x16 {
+    const { assert!(J < 2) };
+    broadcast_displaced!(pair, 4 * J, pair[J])
+}
+
 /// Lanes 1..16 of `v` followed by lane 0 of `next`: each lane's successor
 /// (one valignd on AVX-512).
 #[inline(always)]
