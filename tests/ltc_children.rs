@@ -197,8 +197,6 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
             for deep in [99u32, 11] {
                 let a = g.children_scalar(cell, deep);
                 let b = children_x16::children_x16(&g, cell, deep);
-                // Near-zero children are compared against their node, so that
-                // deep nodes (whole nodes of ~1e-12) are compared too.
                 // The plain-quad kernels perform the same operations lane by
                 // lane (the wide one skipping only exact identities), so
                 // they agree bit for bit.
@@ -211,6 +209,8 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
                         cell.depth + 1
                     );
                 }
+                // Near-zero children are compared against their node, so that
+                // deep nodes (whole nodes of ~1e-12) are compared too.
                 let node: f64 = a.iter().map(|&v| v as f64).sum();
                 for k in 0..4 {
                     let scale = a[k].abs().max(1e-30) as f64;

@@ -19,13 +19,14 @@
 //! node, on the short-edge path, 42 zmm and 12 narrower arithmetic
 //! operations in the AVX-512 build (66 and 17 before this layout), the
 //! rest loads; 38 zmm down to depth 11, where the azimuths' low table
-//! entry is the identity and its rotation is skipped. Quantities with 3 distinct values per node (heights) are
-//! formed 4 wide and spread by one permutation; depth-only lane constants,
-//! table entries and the lobe's numbers are loaded, never formed or
-//! broadcast from registers; the integral's scale rides in the short-edge
-//! polynomial's coefficients; and the vertices are kept at length 2 to
-//! spare the Newton step's halving (powers of 2 are exact, so the result
-//! is still the scalar's bit for bit).
+//! entry is the identity and its rotation is skipped. Quantities with 3
+//! distinct values per node (heights) are formed 4 wide and spread by one
+//! permutation; depth-only lane constants, table entries and the lobe's
+//! numbers are loaded, never formed or broadcast from registers; the
+//! integral's scale rides in the short-edge polynomial's coefficients; and
+//! the vertices are kept at length 2 to spare the Newton step's halving
+//! (powers of 2 are exact, so the result is still the scalar's bit for
+//! bit).
 
 use super::children::{GlossyLtc, HorizonSide};
 use super::fast_math::{
