@@ -1,6 +1,9 @@
 //! Kernels of radiance and product guiding on a realistically refined
 //! quadtree: one sample (descent + point placement) and one pdf evaluation,
-//! and for the product the per-vertex LTC set-up they include.
+//! and for the product the per-vertex LTC set-up they include; also one
+//! product sample on a lobe that earlier descents have already walked
+//! (`product_sample_reused_lobe`), the cost per path once a pixel's paths
+//! share their first vertex's lobe, as in a long render.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
@@ -181,6 +184,27 @@ fn bench_product(c: &mut Criterion) {
             let mut w = ProductWeights::Product(&mut lobe);
             let _ = black_box(root_total(&tree, &mut w));
             black_box(pdf(black_box(&tree), &mut w, black_box(sampled[j])))
+        })
+    });
+    // A lobe kept for 64 descents, as a pixel's paths keep their first
+    // vertex's lobe (`guiding::pixel_reuse`): its memo holds the top levels,
+    // so each sample pays mostly the levels below where descents part.
+    // (On this tree a descent takes 7.6 levels on average, of which about
+    // 2 visit a node no earlier descent of its lobe had; session 60.)
+    let mut lobes: Vec<ProductLobe> = points.iter().map(lobe).collect();
+    let mut rng = Rng::new(11, 4);
+    let fresh_us: Vec<Vec2> = (0..4096).map(|_| rng.next_2d()).collect();
+    let mut r = 0usize;
+    c.bench_function("guiding/product_sample_reused_lobe", |b| {
+        b.iter(|| {
+            r = r.wrapping_add(1);
+            let lobe = &mut lobes[(r >> 6) & 255];
+            let mut w = ProductWeights::Product(lobe);
+            black_box(sample(
+                black_box(&tree),
+                &mut w,
+                black_box(fresh_us[r & 4095]),
+            ))
         })
     });
     let mut k = 0usize;

@@ -35,7 +35,7 @@ for f in files:
         elif symbol:
             zmm[symbol] += "%zmm" in line
             ymm[symbol] += "%ymm" in line
-kernels = ["children_x16", "coarse_children_x16", "stokes_children_x16", "level1_children_x16",
+kernels = ["children_x16", "coarse_children_x16", "stokes_children_x16",
            "clipped_small_children", "edge_z_soa", "child_integrals"]
 print(f"target-cpu={cpu} (AVX-512F: {'yes' if avx512 else 'no'}): lines with a zmm / ymm operand")
 for k in kernels:

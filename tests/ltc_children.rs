@@ -180,6 +180,7 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
     let mut worst = 0.0f64;
     let mut compared = 0usize;
     let mut plain_quads = 0usize;
+    let mut deep_nodes = 0usize;
     for trial in 0..300 {
         let frame = random_frame(&mut rng);
         let alpha = [1e-3f32, 0.01, 0.1, 0.3, 0.5][trial % 5];
@@ -209,6 +210,11 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
                         cell.depth + 1
                     );
                 }
+                // So do the deep rules (zeros of either sign being equal).
+                if cell.depth + 1 >= deep.max(2) {
+                    deep_nodes += 1;
+                    assert_eq!(a, b, "deep rule at depth {}", cell.depth + 1);
+                }
                 // Near-zero children are compared against their node, so that
                 // deep nodes (whole nodes of ~1e-12) are compared too.
                 let node: f64 = a.iter().map(|&v| v as f64).sum();
@@ -234,6 +240,7 @@ fn wide_kernel_equals_scalar_lane_for_lane() {
         plain_quads > 5000,
         "{plain_quads} plain-quad nodes compared bit for bit"
     );
+    assert!(deep_nodes > 2500, "{deep_nodes} deep nodes compared");
 }
 
 /// The wide diffuse kernels against the scalar routes, bit for bit: the

@@ -298,11 +298,36 @@ impl GlossyLtc {
             && (d[0] + d[1]) + (d[2] + d[3]) < EDGE_SUM_MIN_MASS
     }
 
-    /// D(centre)·Ω for the 4 children.
+    /// D(centre)·Ω for the 4 children, as p_z⁺·s/|p|⁴ (see [`Self::deep_scale`]).
     pub fn children_deep(&self, cell: Cell) -> [f32; 4] {
-        let omega = cell_solid_angle(cell.depth + 1);
-        child_centre_directions(cell).map(|w| self.density(w) * omega)
+        let s = self.deep_scale(cell.depth + 1);
+        child_centre_directions(cell).map(|w| {
+            let p = self.rows.map(|m| deep_row(m, w.x, w.y, w.z));
+            let l2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+            if !(l2 > 0.0) {
+                return 0.0;
+            }
+            p[2].max(0.0) * s / (l2 * l2)
+        })
     }
+
+    /// The deep rule's constant at child depth `depth`: the density
+    /// p_z⁺·|det|/(π·|p|⁴) (p = A·ω) times Ω = 4π/4^depth is p_z⁺·s/|p|⁴
+    /// with s = |det|·4^(1 − depth), |det| scaled by a power of 2 (exact),
+    /// so the chain from p to D carries one product and one division
+    /// instead of three products and one division.
+    #[inline]
+    pub fn deep_scale(&self, depth: u32) -> f32 {
+        self.det_abs * f32::from_bits((129u32.saturating_sub(2 * depth.min(63))) << 23)
+    }
+}
+
+/// One row of the map A applied to a centre direction for the deep rule,
+/// its z term first: a centre's height is ready before its radius, which
+/// waits on a square root, so the x and y terms end the chain.
+#[inline(always)]
+pub fn deep_row(m: [f32; 3], x: f32, y: f32, z: f32) -> f32 {
+    m[0].mul_add(x, m[1].mul_add(y, m[2] * z))
 }
 
 /// Unit directions of the 4 children's centres, in [`Cell::child`] order,

@@ -16,7 +16,7 @@ use super::children::{EXACT_CLIP_DEPTH, GlossyLtc};
 use super::coarse_x16::coarse_children_x16;
 use super::fast_math::{cell_solid_angle, dyadic_sincos, step_sincos};
 use super::form_factor;
-use super::level1::level1_children_x16;
+use super::level1::level1_children_x4;
 use super::polygon::cached_cell_polygon;
 use super::quad_x16::quad_children_x16;
 use super::simd::{edge_vectors, load16};
@@ -110,15 +110,20 @@ pub fn clipped_small_children(rows: &[[f32; 3]; 3], scale: f32, cell: Cell) -> O
 }
 
 /// Heights of the 4 children's centres, child k in lane k (height by the
-/// u bit), with the operations of [`super::children::child_centres`]: `u` converted
-/// lane-wise as in `heights_and_radii` (no stale-register dependency
-/// between calls), exact below 2^24.
+/// u bit), and their 1 + z, with the values of
+/// [`super::children::child_centres`]: with u = 4·ix (converted lane-wise
+/// as in `heights_and_radii`: no stale-register dependency between calls,
+/// exact below 2^24), m = (u + 1 or 3)·2h is an integer times a power of 2,
+/// so the fused m = u·2h + (1 or 3)·2h is exact, and so are z = m − 1,
+/// 1 + z = m and 1 − z = 2 − m. The radius (1 − z)(1 + z) then starts
+/// from m, two operations earlier than from z, on the deep kernel's chain.
 #[inline(always)]
-fn centre_heights_x4(cell: Cell) -> f32x4 {
+fn centre_heights_x4(cell: Cell) -> (f32x4, f32x4) {
     let height = f32x4::from([1.0, 3.0, 1.0, 3.0]);
-    let h = 1.0 / (1u64 << (cell.depth + 2)) as f32;
+    let two_h = f32x4::splat(2.0 / (1u64 << (cell.depth + 2)) as f32);
     let u = i32x4::splat((4 * cell.ix) as i32).round_float();
-    ((u + height) * f32x4::splat(h)).mul_add(f32x4::splat(2.0), f32x4::splat(-1.0))
+    let m = u.mul_add(two_h, height * two_h);
+    (m - f32x4::splat(1.0), m)
 }
 
 /// sin and cos of the 4 children's centre azimuths, child k in lane k
@@ -139,13 +144,14 @@ fn centre_sincos_x4(cell: Cell) -> (f32x4, f32x4) {
 }
 
 /// Unit directions (x, y, z) of the 4 children's centres, child k in lane
-/// k, with the operations of [`super::children::child_centre_directions`]
-/// but its clamp of (1 − z)(1 + z) at 0, a no-op here: a centre's |z| ≤ 1.
+/// k, with the values of [`super::children::child_centre_directions`]: its
+/// operations, but 1 ± z taken from [`centre_heights_x4`]'s m (the same
+/// exact values) and without its clamp of (1 − z)(1 + z) at 0, a no-op
+/// here: a centre's |z| < 1.
 #[inline(always)]
 fn centre_directions_x4(cell: Cell) -> [f32x4; 3] {
-    let s4 = f32x4::splat;
-    let z = centre_heights_x4(cell);
-    let r = ((s4(1.0) - z) * (s4(1.0) + z)).sqrt();
+    let (z, one_plus_z) = centre_heights_x4(cell);
+    let r = ((f32x4::splat(2.0) - one_plus_z) * one_plus_z).sqrt();
     let (s, c) = centre_sincos_x4(cell);
     [r * c, r * s, z]
 }
@@ -154,21 +160,22 @@ fn centre_directions_x4(cell: Cell) -> [f32x4; 3] {
 /// scalar [`GlossyLtc::children_deep`]'s operations. Four lanes, not
 /// sixteen: the call is one chain through a square root and a division,
 /// and with twelve idle lanes on 512-bit registers it took 12.5 ns
-/// against 9.0 ns on 128-bit ones (same process, levels 6–20).
+/// against 9.0 ns on 128-bit ones (same process, levels 6–20). In a
+/// sample descent the next level's cell waits on this result, so its
+/// latency, not its throughput, is what a level costs.
 pub fn children_deep_x4(g: &GlossyLtc, cell: Cell) -> [f32; 4] {
     let s4 = f32x4::splat;
     let [x, y, z] = centre_directions_x4(cell);
-    // `simd::transform`'s operations, on four lanes.
+    // `deep_row`'s operations, on four lanes.
     let row = |i: usize| {
         let m = &g.rows[i];
-        s4(m[2]).mul_add(z, s4(m[1]).mul_add(y, s4(m[0]) * x))
+        s4(m[0]).mul_add(x, s4(m[1]).mul_add(y, s4(m[2]) * z))
     };
     let p = [row(0), row(1), row(2)];
     let l2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-    let d = p[2].fast_max(s4(0.0)) * s4(g.det_abs) / (s4(std::f32::consts::PI) * l2 * l2);
+    let d = (p[2].fast_max(s4(0.0)) * s4(g.deep_scale(cell.depth + 1))) / (l2 * l2);
     let ok = l2.simd_gt(s4(0.0));
-    let omega = cell_solid_angle(cell.depth + 1);
-    (ok.bitselect(d, s4(0.0)) * s4(omega)).to_array()
+    ok.bitselect(d, s4(0.0)).to_array()
 }
 
 /// n·ω⁺/π × Ω at the 4 children's centres, child k in lane k, with the
@@ -210,7 +217,7 @@ pub fn diffuse_children_x4(normal: Vec3, cell: Cell) -> [f32; 4] {
     }
     let s4 = f32x4::splat;
     let (dz, off, k2_scale) = form_factor::gauss_constants(cell);
-    let z = centre_heights_x4(cell);
+    let (z, _) = centre_heights_x4(cell);
     let f = |z: f32x4| (s4(1.0) - z * z).fast_max(s4(0.0)).sqrt();
     let g = s4(0.5 * dz) * (f(z - s4(off)) + f(z + s4(off)));
     let (s, c) = centre_sincos_x4(cell);
@@ -235,7 +242,7 @@ pub fn diffuse_children_x4(normal: Vec3, cell: Cell) -> [f32; 4] {
 pub fn children_x16(g: &GlossyLtc, cell: Cell, deep_depth: u32) -> [f32; 4] {
     let depth = cell.depth + 1;
     if depth <= EXACT_CLIP_DEPTH {
-        return level1_children_x16(&g.rows, g.orientation)
+        return level1_children_x4(&g.rows, g.orientation)
             .unwrap_or_else(|| g.children_exact_f32(cell));
     }
     if depth >= deep_depth {

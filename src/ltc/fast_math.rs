@@ -14,7 +14,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use std::sync::LazyLock;
-use wide::f32x16;
+use wide::{f32x4, f32x16};
 
 /// θ/sin θ = acos(x)/√(1 − x²) ≈ Σ c_k·x^k on x ∈ [0, 1]: the minimax
 /// polynomial of degree 7 for the relative error (Remez, then rounded to
@@ -127,6 +127,35 @@ pub fn rsqrt_estimate_x16(x: f32x16) -> f32x16 {
     }
 }
 
+/// [`rsqrt`] on 4 lanes: the same hardware estimate as the scalar one
+/// (`rsqrt14` under AVX-512, `rsqrt` under AVX2), refined the same way.
+#[inline(always)]
+pub fn rsqrt_x4(x: f32x4) -> f32x4 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512vl"))]
+    let y: f32x4 = {
+        use std::arch::x86_64::{__m128, _mm_rsqrt14_ps};
+        // SAFETY: f32x4 and __m128 are both 16 bytes holding 4 f32;
+        // avx512vl is enabled at compile time (the cfg above).
+        unsafe {
+            let v: __m128 = std::mem::transmute(x);
+            std::mem::transmute(_mm_rsqrt14_ps(v))
+        }
+    };
+    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512vl")))]
+    let y: f32x4 = {
+        use std::arch::x86_64::{__m128, _mm_rsqrt_ps};
+        // SAFETY: as above; avx2 (so sse) is enabled at compile time.
+        unsafe {
+            let v: __m128 = std::mem::transmute(x);
+            std::mem::transmute(_mm_rsqrt_ps(v))
+        }
+    };
+    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512vl")))]
+    let y = f32x4::splat(1.0) / x.sqrt();
+    let hx = f32x4::splat(0.5) * x;
+    y * (-hx).mul_add(y * y, f32x4::splat(1.5))
+}
+
 /// [`rsqrt`] on 16 lanes.
 #[inline(always)]
 pub fn rsqrt_x16(x: f32x16) -> f32x16 {
@@ -147,6 +176,17 @@ impl PolyLane for f32 {
     #[inline(always)]
     fn splat(c: f32) -> Self {
         c
+    }
+    #[inline(always)]
+    fn fma(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, b)
+    }
+}
+
+impl PolyLane for f32x4 {
+    #[inline(always)]
+    fn splat(c: f32) -> Self {
+        f32x4::splat(c)
     }
     #[inline(always)]
     fn fma(self, a: Self, b: Self) -> Self {
@@ -447,6 +487,11 @@ mod tests {
             let wide = rsqrt_x16(lanes).to_array();
             for (l, &v) in lanes.to_array().iter().enumerate() {
                 assert_eq!(wide[l].to_bits(), rsqrt(v).to_bits(), "x = {v}");
+            }
+            let quad: [f32; 4] = std::array::from_fn(|l| lanes.to_array()[4 * l + 1]);
+            let narrow = rsqrt_x4(f32x4::from(quad)).to_array();
+            for (l, &v) in quad.iter().enumerate() {
+                assert_eq!(narrow[l].to_bits(), rsqrt(v).to_bits(), "x = {v}");
             }
         }
         assert!(worst < 3e-7, "worst relative error {worst:e}");

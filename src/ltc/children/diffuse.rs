@@ -4,7 +4,7 @@
 //! form factors (F·n, sphere-clipped across the horizon) deeper.
 
 use super::super::form_factor;
-use super::super::level1::{LUNE_MAX_NORMAL_X, level1_children, level1_children_x16};
+use super::super::level1::{LUNE_MAX_NORMAL_X, level1_children, level1_children_x4};
 use super::super::polygon::{
     MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
     transformed_cached_polygon,
@@ -31,7 +31,7 @@ impl ShadingLtc {
         }
         let (rows, o) = (&self.diffuse_rows, self.diffuse_orientation);
         let triangles = match kernel {
-            ProductKernel::Simd => level1_children_x16(rows, o),
+            ProductKernel::Simd => level1_children_x4(rows, o),
             _ => level1_children(rows, o),
         };
         triangles.unwrap_or_else(|| exact_children_f32(rows, o, Cell::ROOT))
