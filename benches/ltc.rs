@@ -5,7 +5,9 @@
 //! every level runs the edge sums); `children_diffuse_precomputed` times a
 //! diffuse lobe from the cell form factors (through the API, Simd kernel); `api_simd` is what the guider
 //! pays per level through `ShadingLtc::child_integrals` with the default
-//! switches; `children_x16_guider_chords` times the coarse levels with the
+//! switches; `cosine_root_children` the cosine lobe's shares of the root's
+//! children (roulette's adjoint, every guided vertex);
+//! `children_x16_guider_chords` times the coarse levels with the
 //! product guider's chords (1/16 turn; plain quads from level 4). Cells
 //! follow a descent into the lobe (α = 0.1, θ_o = 45°).
 
@@ -15,7 +17,7 @@ use ltcguide::bsdf::{GgxLobe, Lobes};
 use ltcguide::directional::{Cell, dir_to_square};
 use ltcguide::ltc::children::{LtcOptions, ProductKernel, ShadingLtc};
 use ltcguide::ltc::children_x16::children_x16;
-use ltcguide::ltc::form_factor;
+use ltcguide::ltc::form_factor::{self, cosine_root_children};
 use ltcguide::ltc::table::LtcTable;
 use ltcguide::math::Frame;
 use std::hint::black_box;
@@ -70,6 +72,21 @@ fn bench(c: &mut Criterion) {
         m.normalize().as_vec3()
     };
     let mut group = c.benchmark_group("ltc");
+    // The cosine lobe's root shares, which both guided methods take at
+    // every vertex where adjoint-driven roulette reads its estimate.
+    let normals: Vec<Vec3> = (0..64)
+        .map(|i| {
+            let t = i as f32 * 0.7;
+            Vec3::new(t.cos() * 0.8, t.sin() * 0.8, 0.6 * (1.3 * t).cos()).normalize()
+        })
+        .collect();
+    let mut i = 0usize;
+    group.bench_function("cosine_root_children", |b| {
+        b.iter(|| {
+            i = (i + 1) & 63;
+            cosine_root_children(black_box(normals[i]))
+        })
+    });
     for level in LEVELS {
         let node = node_at(peak, level - 1);
         group.bench_with_input(

@@ -118,7 +118,7 @@ pub fn reflected_radiance_estimate(
     root_radiance: [f32; 4],
 ) -> f32 {
     let side = if wo_local.z < 0.0 { -1.0 } else { 1.0 };
-    let share = crate::ltc::level1::cosine_root_children(frame.n * side);
+    let share = crate::ltc::form_factor::cosine_root_children(frame.n * side);
     albedo * (0..4).map(|k| share[k] * root_radiance[k]).sum::<f32>()
 }
 

@@ -564,7 +564,7 @@ impl ShadingLtc {
         if self.diffuse_weight > 0.0 {
             let d = match kernel {
                 ProductKernel::Naive => self.diffuse_reference(cell),
-                _ if cell.depth < EXACT_CLIP_DEPTH => self.diffuse_root_children(kernel),
+                _ if cell.depth < EXACT_CLIP_DEPTH => self.diffuse_root_children(),
                 ProductKernel::Simd if cell.depth + 1 >= self.diffuse_centre_depth => {
                     children_x16::diffuse_centres_x4(self.normal, cell)
                 }

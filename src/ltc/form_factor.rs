@@ -17,6 +17,7 @@ use crate::directional::Cell;
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
+use wide::f32x4;
 
 /// Levels 0..=PRECOMPUTED_DEPTH are tabulated (1365 cells, 16 KiB).
 pub const PRECOMPUTED_DEPTH: u32 = 5;
@@ -127,11 +128,78 @@ pub fn children_form_factors_f32(cell: Cell) -> [Vec3; 4] {
     })
 }
 
+/// The clamped cosine about a unit normal `n`, integrated over the 4 root
+/// cells (quarter spheres {s_z·z ≥ 0} ∩ {s_y·y ≥ 0}, in [`Cell::child`]
+/// order) and divided by π: each cell's share of the irradiance under
+/// uniform light, summing to 1. Radiance guiding takes them for
+/// roulette's adjoint estimate at every vertex that reads it, and product
+/// guiding for its cosine lobe at level 1.
+///
+/// In closed form. The clipped child is the intersection of three
+/// hemispheres with inward normals s_z·ẑ, s_y·ŷ and n, a spherical
+/// triangle T, and ∫_T ω dω = ½·Σ θ_i·m_i over its edges (θ_i the arc on
+/// the great circle of normal m_i), so the share is
+/// (θ_n + s_z·n_z·θ_z + s_y·n_y·θ_y)/2π. The vertices are ±x̂ and the
+/// horizon's crossings of the two planes, which give
+/// - θ_z = atan2(|n_x|, −s_y·n_y) (on z = 0, from ±x̂),
+/// - θ_y = atan2(|n_x|, −s_z·n_z) (on y = 0, from ±x̂),
+/// - θ_n = atan2(|n_x|, s_y·s_z·n_y·n_z) (on the horizon),
+///
+/// each well conditioned for any n_x ≠ 0 (the mapped-triangle form of
+/// [`super::level1`] loses accuracy as the triangle tends to a lune, and
+/// fell back to clipping four polygons below |n_x| = 0.05). With a sign
+/// flipped, atan2(|n_x|, −c) = π − atan2(|n_x|, c), so three arctangents
+/// serve the four children. At n_x = 0 the cells are lunes and
+/// [`cosine_quarter_spheres_near_lune`] is exact.
+pub fn cosine_root_children(n: Vec3) -> [f32; 4] {
+    if n.x == 0.0 {
+        return cosine_quarter_spheres_near_lune(n);
+    }
+    use std::f32::consts::PI;
+    let s4 = f32x4::splat;
+    let c4 = f32x4::from;
+    // atan2(|n_x|, ·) of n_y·n_z, n_y and n_z (the last lane unused).
+    let [horizon, y_edge, z_edge, _] =
+        atan2_upper_x4(s4(n.x.abs()), c4([n.y * n.z, n.y, n.z, n.z])).to_array();
+    // Child k in lane k: s_z = −, +, −, + and s_y = +, +, −, −, so each
+    // arc is the angle or π minus it (fused, one rounding as π − θ).
+    let theta_n = s4(horizon).mul_add(c4([-1.0, 1.0, 1.0, -1.0]), c4([PI, 0.0, 0.0, PI]));
+    let theta_z = s4(y_edge).mul_add(c4([-1.0, -1.0, 1.0, 1.0]), c4([PI, PI, 0.0, 0.0]));
+    let theta_y = s4(z_edge).mul_add(c4([1.0, -1.0, 1.0, -1.0]), c4([0.0, PI, 0.0, PI]));
+    let sz_nz = s4(n.z) * c4([-1.0, 1.0, -1.0, 1.0]);
+    let sy_ny = s4(n.y) * c4([1.0, 1.0, -1.0, -1.0]);
+    let share = sy_ny.mul_add(theta_y, sz_nz.mul_add(theta_z, theta_n)) * s4(0.5 / PI);
+    // A NaN (a non-finite normal) and rounding below 0 both give 0.
+    share.fast_max(s4(0.0)).to_array()
+}
+
+/// atan2(y, x) for y > 0 on four lanes, with
+/// [`crate::directional::fast_atan2`]'s reduction and polynomial (so
+/// within its 4e-7 rad): one division for four angles.
+#[inline(always)]
+fn atan2_upper_x4(y: f32x4, x: f32x4) -> f32x4 {
+    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    let s4 = f32x4::splat;
+    let ax = x.abs();
+    let (lo, hi) = (ax.fast_min(y), ax.fast_max(y));
+    let upper = lo.simd_gt(s4(0.414_213_57) * hi);
+    let t = upper.bitselect(lo - hi, lo) / upper.bitselect(lo + hi, hi);
+    let z = t * t;
+    let p = (((s4(8.053_744_5e-2) * z - s4(1.387_768_6e-1)) * z + s4(1.997_771_1e-1)) * z
+        - s4(3.333_295e-1))
+        * z
+        * t
+        + t;
+    let r = upper.bitselect(s4(FRAC_PI_4) + p, p);
+    let r = y.simd_gt(ax).bitselect(s4(FRAC_PI_2) - r, r);
+    x.simd_lt(s4(0.0)).bitselect(s4(PI) - r, r)
+}
+
 /// The cosine lobe's integrals over the root's children (quarter spheres
 /// {s_z·z ≥ 0} ∩ {s_y·y ≥ 0}, in [`Cell::child`] order) when the normal n
 /// is (nearly) perpendicular to x̂, where the three great circles bounding a
-/// clipped child nearly meet at ±x̂ and the triangle form of
-/// [`super::level1`] loses its accuracy.
+/// clipped child nearly meet at ±x̂: exact at n_x = 0, where
+/// [`cosine_root_children`] takes it.
 ///
 /// For n_x = 0 the clipped child is a lune around the x axis: with ψ the
 /// angle about x̂ and m = (n_y, n_z)/|(n_y, n_z)|, ω = (cos t, sin t·cos ψ,

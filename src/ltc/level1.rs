@@ -33,17 +33,15 @@
 //! layout of the quad kernels, took 19.1 ns per call against 15.9 ns for
 //! the four lanes and 28.0 ns for the scalar kernel (criterion, one run,
 //! session 60).
+//!
+//! The cosine lobe (M = I) does not come here: its four shares depend on
+//! the normal alone and have a closed form of three arctangents,
+//! [`super::form_factor::cosine_root_children`].
 
 use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x4, theta_over_sin_obtuse, theta_over_sin_poly};
 use super::polygon::transform_rows;
-use crate::directional::Cell;
 use glam::Vec3;
 use wide::f32x4;
-
-/// Below this |n_x| the cosine lobe's root children take the lune form,
-/// whose error is ≈ 0.35·n_x² (5.7e-6 at 4e-3, tests/ltc_form_factor.rs),
-/// where the triangle form's is ~1e-7/|n_x|.
-pub const LUNE_MAX_NORMAL_X: f32 = 4e-3;
 
 /// Smallest |h_x|/|h| handled as triangles: below it the nearly antipodal
 /// vertices cost up to ~1e-7/(|h_x|/|h|) of relative accuracy.
@@ -118,23 +116,6 @@ fn signed_term([czw, d, p, far]: [f32; 4], s: f32) -> f32 {
     (czw * s) * if d * s < 0.0 { far } else { p }
 }
 
-/// The clamped cosine about a unit normal `n`, integrated over the 4 root
-/// cells (quarter spheres) and divided by π: each cell's share of the
-/// irradiance under uniform light, summing to 1. Exact clipping, as for
-/// the product's diffuse lobe at level 1. Both guided methods take it at
-/// every vertex where adjoint-driven roulette reads its estimate, so it
-/// runs the four-lane kernel (bit for bit the scalar one's values).
-pub fn cosine_root_children(n: Vec3) -> [f32; 4] {
-    if n.x.abs() < LUNE_MAX_NORMAL_X {
-        return super::form_factor::cosine_quarter_spheres_near_lune(n);
-    }
-    let f = crate::math::Frame::from_normal(n);
-    let rows = [f.s.to_array(), f.t.to_array(), n.to_array()];
-    let orientation = f.s.dot(f.t.cross(n)).signum();
-    level1_children_x4(&rows, orientation)
-        .unwrap_or_else(|| super::children::exact_children_f32(&rows, orientation, Cell::ROOT))
-}
-
 /// Exactly clipped integrals of the root's children, scalar.
 pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
@@ -180,8 +161,7 @@ const EDGE_SIGNS: [[bool; 3]; 4] = {
 /// (a·b > 0 ? far : p)·(−(a×b)_z·w) — the scalar's (s·cz·w)·(s·d < 0 ?
 /// far : p) for s = ±1, since a sign flips those exactly — and each
 /// child's sum of its edges' terms in the scalar's order. The scalar
-/// kernel spends most of its operations on those 12 signed terms, and
-/// the 16-lane kernel computes 12 full edges for the 3 the children share.
+/// kernel spends most of its operations on those 12 signed terms.
 pub fn level1_children_x4(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let scale = scales(rows, orientation)?;
     let h = Vec3::from(rows[2]);

@@ -1,40 +1,24 @@
 //! The cosine lobe's child integrals (diffuse lobes, and GGX lobes rough
-//! enough to count as cosines): exact quarter spheres at level 1, exact
+//! enough to count as cosines): quarter spheres in closed form at level 1, exact
 //! clipping of straddling cells to [`EXACT_CROSSING_DEPTH`], and the cell
 //! form factors (F·n, sphere-clipped across the horizon) deeper.
 
 use super::super::form_factor;
-use super::super::level1::{LUNE_MAX_NORMAL_X, level1_children, level1_children_x4};
 use super::super::polygon::{
     MAX_CACHED_POLYGON, cached_cell_polygon, cell_integral_reference, clipped_edge_sum_z,
     transformed_cached_polygon,
 };
 use super::super::sphere_clip::clipped_integral;
-use super::{
-    EXACT_CLIP_DEPTH, ProductKernel, ShadingLtc, cell_solid_angle, child_centre_directions,
-    child_grid, exact_children_f32,
-};
+use super::{EXACT_CLIP_DEPTH, ShadingLtc, cell_solid_angle, child_centre_directions, child_grid};
 use crate::directional::Cell;
 use glam::Vec3;
 use std::f32::consts::PI;
 
 impl ShadingLtc {
     /// Cosine-lobe integrals over the root's children (quarter spheres),
-    /// exact to f32 accuracy: the triangle form where the normal is well
-    /// away from the y-z plane, the lune form where it (nearly) lies in it —
-    /// every normal of an axis-aligned wall or floor does, and there the
-    /// triangle form would fall back to clipping four polygons — and exact
-    /// clipping in between.
-    pub(super) fn diffuse_root_children(&self, kernel: ProductKernel) -> [f32; 4] {
-        if self.normal.x.abs() < LUNE_MAX_NORMAL_X {
-            return form_factor::cosine_quarter_spheres_near_lune(self.normal);
-        }
-        let (rows, o) = (&self.diffuse_rows, self.diffuse_orientation);
-        let triangles = match kernel {
-            ProductKernel::Simd => level1_children_x4(rows, o),
-            _ => level1_children(rows, o),
-        };
-        triangles.unwrap_or_else(|| exact_children_f32(rows, o, Cell::ROOT))
+    /// in closed form ([`form_factor::cosine_root_children`]).
+    pub(super) fn diffuse_root_children(&self) -> [f32; 4] {
+        form_factor::cosine_root_children(self.normal)
     }
 
     /// n·ω⁺/π at the 4 children's centres × their solid angle.
@@ -53,7 +37,7 @@ impl ShadingLtc {
     /// above the horizon, sphere-clipped across it.
     pub fn diffuse_form_factors(&self, cell: Cell) -> [f32; 4] {
         if cell.depth < EXACT_CLIP_DEPTH {
-            return self.diffuse_root_children(ProductKernel::Optimized);
+            return self.diffuse_root_children();
         }
         if cell.depth < self.exact_crossing_depth {
             // Large cells: classify by the polygon, clip straddlers exactly.
