@@ -142,8 +142,9 @@ pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4
     )
 }
 
-/// Signs of edge e in child k's term, s_k,e: s_y·s_z, s_y and s_z (the
-/// products [`level1_children`] forms, which are exact).
+/// Whether edge e enters child k's sum with the sign s_k,e = +1 (else −1):
+/// s_y·s_z, s_y and s_z for e = 0, 1, 2, the products [`level1_children`]
+/// forms (exact).
 const EDGE_SIGNS: [[bool; 3]; 4] = {
     let mut t = [[false; 3]; 4];
     let mut k = 0;
