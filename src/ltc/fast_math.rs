@@ -183,27 +183,21 @@ impl PolyLane for f32 {
     }
 }
 
-impl PolyLane for f32x4 {
-    #[inline(always)]
-    fn splat(c: f32) -> Self {
-        f32x4::splat(c)
-    }
-    #[inline(always)]
-    fn fma(self, a: Self, b: Self) -> Self {
-        self.mul_add(a, b)
-    }
+macro_rules! poly_lane_for_vectors {
+    ($($lanes:ty),*) => {$(
+        impl PolyLane for $lanes {
+            #[inline(always)]
+            fn splat(c: f32) -> Self {
+                <$lanes>::splat(c)
+            }
+            #[inline(always)]
+            fn fma(self, a: Self, b: Self) -> Self {
+                self.mul_add(a, b)
+            }
+        }
+    )*};
 }
-
-impl PolyLane for f32x16 {
-    #[inline(always)]
-    fn splat(c: f32) -> Self {
-        f32x16::splat(c)
-    }
-    #[inline(always)]
-    fn fma(self, a: Self, b: Self) -> Self {
-        self.mul_add(a, b)
-    }
-}
+poly_lane_for_vectors!(f32x4, f32x16);
 
 /// θ/sin θ on [0, 1] (the polynomial alone), in Estrin's form: 9
 /// operations instead of Horner's 7, but a dependency chain of 3 instead
