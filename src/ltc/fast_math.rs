@@ -98,8 +98,16 @@ pub fn rsqrt(x: f32) -> f32 {
     };
     #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
     let y = 1.0 / x.sqrt();
-    let hx = 0.5 * x;
-    y * (-hx).mul_add(y * y, 1.5)
+    newton_rsqrt_step(x, y)
+}
+
+/// One Newton step y·(1.5 − ½x·y²) from an estimate y of 1/√x, the same
+/// operations on every lane width, so the wide rsqrts are the scalar one
+/// lane by lane (−½·x is −(½·x) exactly).
+#[inline(always)]
+fn newton_rsqrt_step<T: PolyLane>(x: T, y: T) -> T {
+    let minus_half_x = T::splat(-0.5) * x;
+    y * minus_half_x.fma(y * y, T::splat(1.5))
 }
 
 /// The hardware estimate of 1/√x on 16 lanes, the one [`rsqrt`] refines
@@ -152,16 +160,13 @@ pub fn rsqrt_x4(x: f32x4) -> f32x4 {
     };
     #[cfg(not(any(target_feature = "avx2", target_feature = "avx512vl")))]
     let y = f32x4::splat(1.0) / x.sqrt();
-    let hx = f32x4::splat(0.5) * x;
-    y * (-hx).mul_add(y * y, f32x4::splat(1.5))
+    newton_rsqrt_step(x, y)
 }
 
 /// [`rsqrt`] on 16 lanes.
 #[inline(always)]
 pub fn rsqrt_x16(x: f32x16) -> f32x16 {
-    let y = rsqrt_estimate_x16(x);
-    let hx = f32x16::splat(0.5) * x;
-    y * (-hx).mul_add(y * y, f32x16::splat(1.5))
+    newton_rsqrt_step(x, rsqrt_estimate_x16(x))
 }
 
 /// f32 and f32x16 alike: the polynomial below is written once for both,
