@@ -7,6 +7,10 @@
 //! pays per level through `ShadingLtc::child_integrals` with the default
 //! switches; `cosine_root_children` the cosine lobe's shares of the root's
 //! children (roulette's adjoint, every guided vertex);
+//! `level1_near_lune/*` the root's children of the same lobe turned so that
+//! |h_x| = 0.01·|h|, where the mapped triangles are ill conditioned: the
+//! closed form level 1 now takes there, and the four clipped polygons it
+//! took before session 61;
 //! `children_x16_guider_chords` times the coarse levels with the
 //! product guider's chords (1/16 turn; plain quads from level 4). Cells
 //! follow a descent into the lobe (α = 0.1, θ_o = 45°).
@@ -15,9 +19,11 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use glam::Vec3;
 use ltcguide::bsdf::{GgxLobe, Lobes};
 use ltcguide::directional::{Cell, dir_to_square};
+use ltcguide::ltc::children::exact_children_f32;
 use ltcguide::ltc::children::{LtcOptions, ProductKernel, ShadingLtc};
 use ltcguide::ltc::children_x16::children_x16;
 use ltcguide::ltc::form_factor::{self, cosine_root_children};
+use ltcguide::ltc::level1::level1_children_x4;
 use ltcguide::ltc::table::LtcTable;
 use ltcguide::math::Frame;
 use std::hint::black_box;
@@ -71,7 +77,23 @@ fn bench(c: &mut Criterion) {
         let m = g.a64.inverse() * glam::DVec3::Z;
         m.normalize().as_vec3()
     };
+    let near_lune = {
+        let mut a = g.a64;
+        a.x_axis.z = 0.01 * a.row(2).length();
+        ltcguide::ltc::children::GlossyLtc::from_map(a, 1.0, &opts)
+    };
     let mut group = c.benchmark_group("ltc");
+    let root = Cell {
+        depth: 0,
+        ix: 0,
+        iy: 0,
+    };
+    group.bench_function("level1_near_lune/quarter_sphere", |b| {
+        b.iter(|| level1_children_x4(black_box(&near_lune.rows), near_lune.orientation))
+    });
+    group.bench_function("level1_near_lune/polygons", |b| {
+        b.iter(|| exact_children_f32(black_box(&near_lune.rows), near_lune.orientation, root))
+    });
     // The cosine lobe's root shares, which both guided methods take at
     // every vertex where adjoint-driven roulette reads its estimate.
     let normals: Vec<Vec3> = (0..64)

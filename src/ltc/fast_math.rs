@@ -393,6 +393,30 @@ pub fn ceil_log2(x: f64) -> i64 {
     if m == 0 { e } else { e + 1 }
 }
 
+/// atan2(y, x) for y > 0 on four lanes, with
+/// [`crate::directional::fast_atan2`]'s reduction and polynomial (so
+/// within its 4e-7 rad): one division for four angles. Three calls of the
+/// scalar function instead took the diffuse lobe's level 1 through the
+/// API from 12.1 to 22.8 ns (session 60).
+#[inline(always)]
+pub fn atan2_upper_x4(y: f32x4, x: f32x4) -> f32x4 {
+    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    let s4 = f32x4::splat;
+    let ax = x.abs();
+    let (lo, hi) = (ax.fast_min(y), ax.fast_max(y));
+    let upper = lo.simd_gt(s4(0.414_213_57) * hi);
+    let t = upper.bitselect(lo - hi, lo) / upper.bitselect(lo + hi, hi);
+    let z = t * t;
+    let p = (((s4(8.053_744_5e-2) * z - s4(1.387_768_6e-1)) * z + s4(1.997_771_1e-1)) * z
+        - s4(3.333_295e-1))
+        * z
+        * t
+        + t;
+    let r = upper.bitselect(s4(FRAC_PI_4) + p, p);
+    let r = y.simd_gt(ax).bitselect(s4(FRAC_PI_2) - r, r);
+    x.simd_lt(s4(0.0)).bitselect(s4(PI) - r, r)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

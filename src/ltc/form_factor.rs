@@ -17,7 +17,6 @@ use crate::directional::Cell;
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
-use wide::f32x4;
 
 /// Levels 0..=PRECOMPUTED_DEPTH are tabulated (1365 cells, 16 KiB).
 pub const PRECOMPUTED_DEPTH: u32 = 5;
@@ -135,21 +134,20 @@ pub fn children_form_factors_f32(cell: Cell) -> [Vec3; 4] {
 /// roulette's adjoint estimate at every vertex that reads it, and product
 /// guiding for its cosine lobe at level 1.
 ///
-/// In closed form. The clipped child is the intersection of three
-/// hemispheres with inward normals s_z·ẑ, s_y·ŷ and n, a spherical
-/// triangle T, and ∫_T ω dω = ½·Σ θ_i·m_i over its edges (θ_i the arc on
-/// the great circle of normal m_i), so the share is
-/// (θ_n + s_z·n_z·θ_z + s_y·n_y·θ_y)/2π. The vertices are ±x̂ and the
-/// horizon's crossings of the two planes, which give
+/// In closed form, the case A = shading frame of [`super::quarter_sphere`]'s
+/// three arctangents. The clipped child is the intersection of three hemispheres
+/// with inward normals s_z·ẑ, s_y·ŷ and n, a spherical triangle T, and
+/// ∫_T ω dω = ½·Σ θ_i·m_i over its edges (θ_i the arc on the great circle
+/// of normal m_i), so the share is (θ_n + s_z·n_z·θ_z + s_y·n_y·θ_y)/2π.
+/// The vertices are ±x̂ and the horizon's crossings of the two planes,
+/// which give
 /// - θ_z = atan2(|n_x|, −s_y·n_y) (on z = 0, from ±x̂),
 /// - θ_y = atan2(|n_x|, −s_z·n_z) (on y = 0, from ±x̂),
 /// - θ_n = atan2(|n_x|, s_y·s_z·n_y·n_z) (on the horizon),
 ///
-/// each well conditioned for any n_x ≠ 0 (the mapped-triangle form of
-/// [`super::level1`] loses accuracy as the triangle tends to a lune, and
-/// fell back to clipping four polygons below |n_x| = 0.05). With a sign
-/// flipped, atan2(|n_x|, −c) = π − atan2(|n_x|, c), so three arctangents
-/// serve the four children. At n_x = 0 the cells are lunes and
+/// each well conditioned for any n_x ≠ 0. With a sign flipped,
+/// atan2(|n_x|, −c) = π − atan2(|n_x|, c), so three arctangents serve the
+/// four children. At n_x = 0 the cells are lunes and
 /// [`cosine_quarter_spheres_near_lune`] is exact.
 ///
 /// Inlined: called out of line it takes the `Vec3` through the caller's
@@ -162,46 +160,12 @@ pub fn cosine_root_children(n: Vec3) -> [f32; 4] {
     if n.x == 0.0 {
         return cosine_quarter_spheres_near_lune(n);
     }
-    use std::f32::consts::PI;
-    let s4 = f32x4::splat;
-    let c4 = f32x4::from;
-    // atan2(|n_x|, ·) of n_y·n_z, n_y and n_z (the last lane unused).
-    let [horizon, y_edge, z_edge, _] =
-        atan2_upper_x4(s4(n.x.abs()), c4([n.y * n.z, n.y, n.z, n.z])).to_array();
-    // Child k in lane k: s_z = −, +, −, + and s_y = +, +, −, −, so each
-    // arc is the angle or π minus it (fused, one rounding as π − θ).
-    let theta_n = s4(horizon).mul_add(c4([-1.0, 1.0, 1.0, -1.0]), c4([PI, 0.0, 0.0, PI]));
-    let theta_z = s4(y_edge).mul_add(c4([-1.0, -1.0, 1.0, 1.0]), c4([PI, PI, 0.0, 0.0]));
-    let theta_y = s4(z_edge).mul_add(c4([1.0, -1.0, 1.0, -1.0]), c4([0.0, PI, 0.0, PI]));
-    let sz_nz = s4(n.z) * c4([-1.0, 1.0, -1.0, 1.0]);
-    let sy_ny = s4(n.y) * c4([1.0, 1.0, -1.0, -1.0]);
-    let share = sy_ny.mul_add(theta_y, sz_nz.mul_add(theta_z, theta_n)) * s4(0.5 / PI);
-    // A NaN (a non-finite normal) and rounding below 0 both give 0.
-    share.fast_max(s4(0.0)).to_array()
-}
-
-/// atan2(y, x) for y > 0 on four lanes, with
-/// [`crate::directional::fast_atan2`]'s reduction and polynomial (so
-/// within its 4e-7 rad): one division for four angles. Three calls of the
-/// scalar function instead took the diffuse lobe's level 1 through the
-/// API from 12.1 to 22.8 ns (session 60).
-#[inline(always)]
-fn atan2_upper_x4(y: f32x4, x: f32x4) -> f32x4 {
-    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-    let s4 = f32x4::splat;
-    let ax = x.abs();
-    let (lo, hi) = (ax.fast_min(y), ax.fast_max(y));
-    let upper = lo.simd_gt(s4(0.414_213_57) * hi);
-    let t = upper.bitselect(lo - hi, lo) / upper.bitselect(lo + hi, hi);
-    let z = t * t;
-    let p = (((s4(8.053_744_5e-2) * z - s4(1.387_768_6e-1)) * z + s4(1.997_771_1e-1)) * z
-        - s4(3.333_295e-1))
-        * z
-        * t
-        + t;
-    let r = upper.bitselect(s4(FRAC_PI_4) + p, p);
-    let r = y.simd_gt(ax).bitselect(s4(FRAC_PI_2) - r, r);
-    x.simd_lt(s4(0.0)).bitselect(s4(PI) - r, r)
+    super::quarter_sphere::root_shares_x4(super::quarter_sphere::RootPlanes {
+        d_abs: n.x.abs(),
+        y: [n.y * n.z, n.y, n.z],
+        a_z: n.z,
+        b_z: n.y,
+    })
 }
 
 /// The cosine lobe's integrals over the root's children (quarter spheres

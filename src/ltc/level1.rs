@@ -17,8 +17,9 @@
 //! edges serve the 4 children, each child taking each edge's term for one
 //! of the two signs of its endpoints. When h_x is small the three great
 //! circles nearly meet at ±x̂ (the clipped cell tends to a lune) and the
-//! triangle degenerates; those lobes return `None` and the caller clips
-//! the polygons.
+//! triangle degenerates; those lobes take the closed form of
+//! [`super::quarter_sphere`], three arctangents, which is exact to the
+//! lune but slower here.
 //!
 //! The triangles are large (edges up to nearly π), and this kernel runs
 //! once per descent with nothing to overlap it, so its cost is the latency
@@ -35,11 +36,12 @@
 //! session 60).
 //!
 //! The cosine lobe (M = I) does not come here: its four shares depend on
-//! the normal alone and have a closed form of three arctangents,
+//! the normal alone, and the closed form is cheaper for it,
 //! [`super::form_factor::cosine_root_children`].
 
 use super::fast_math::{RSQRT_FLOOR, rsqrt, rsqrt_x4, theta_over_sin_obtuse, theta_over_sin_poly};
 use super::polygon::transform_rows;
+use super::quarter_sphere::{quarter_sphere_children, quarter_sphere_children_x4};
 use glam::Vec3;
 use wide::f32x4;
 
@@ -67,7 +69,8 @@ fn triangle(k: usize, h: Vec3) -> [Vec3; 3] {
     ]
 }
 
-/// Per-child factor sign(D)·orientation/2π, or `None` when degenerate.
+/// Per-child factor sign(D)·orientation/2π, or `None` when degenerate
+/// (or not finite).
 #[inline(always)]
 fn scales(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
     let h = Vec3::from(rows[2]);
@@ -116,9 +119,12 @@ fn signed_term([czw, d, p, far]: [f32; 4], s: f32) -> f32 {
     (czw * s) * if d * s < 0.0 { far } else { p }
 }
 
-/// Exactly clipped integrals of the root's children, scalar.
+/// Exactly clipped integrals of the root's children, scalar; `None` only
+/// for a singular or non-finite map.
 pub fn level1_children(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
-    let scale = scales(rows, orientation)?;
+    let Some(scale) = scales(rows, orientation) else {
+        return quarter_sphere_children(rows, orientation);
+    };
     let h = Vec3::from(rows[2]);
     // Child k's vertices are those of child 1 (s_z = s_y = 1) times s_y,
     // s_z and s_z·s_y, and signs pass exactly through the map, the lengths
@@ -164,7 +170,9 @@ const EDGE_SIGNS: [[bool; 3]; 4] = {
 /// child's sum of its edges' terms in the scalar's order. The scalar
 /// kernel spends most of its operations on those 12 signed terms.
 pub fn level1_children_x4(rows: &[[f32; 3]; 3], orientation: f32) -> Option<[f32; 4]> {
-    let scale = scales(rows, orientation)?;
+    let Some(scale) = scales(rows, orientation) else {
+        return quarter_sphere_children_x4(rows, orientation);
+    };
     let h = Vec3::from(rows[2]);
     let s4 = f32x4::splat;
     // `triangle(1, h)`, vertex e in lane e, mapped as `transform_rows` maps it.
@@ -212,8 +220,8 @@ mod tests {
 
     /// The four-lane kernel against the scalar one, bit for bit, under
     /// random maps: orthonormal frames (the cosine lobe's) and general ones
-    /// (glossy LTCs), including maps whose triangles degenerate (`None` for
-    /// both). Mutation check: taking the mirror term with d < 0 instead of
+    /// (glossy LTCs), including maps whose triangles degenerate (the closed
+    /// form for both). Mutation check: taking the mirror term with d < 0 instead of
     /// d > 0 fails it.
     #[test]
     fn four_lanes_equal_the_scalar_kernel_bit_for_bit() {
@@ -235,7 +243,9 @@ mod tests {
                 b.map(|v| v.map(f32::to_bits)),
                 "rows {rows:?}"
             );
-            triangles += a.is_some() as usize;
+            let h = Vec3::from(rows[2]);
+            triangles += (h.x * h.x >= (MIN_HX * MIN_HX) * h.length_squared()) as usize;
+            assert!(a.is_some());
         }
         assert!(triangles > 15_000, "{triangles}");
     }

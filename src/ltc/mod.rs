@@ -52,6 +52,7 @@ pub mod parallel_quadrature_x16;
 pub mod polygon;
 pub mod quad;
 pub mod quad_x16;
+pub mod quarter_sphere;
 pub mod simd;
 #[cfg(all(
     target_arch = "x86_64",
