@@ -118,8 +118,19 @@ pub fn clipped_cosine_integral_f64(verts: &[DVec3], scratch: &mut Vec<DVec3>) ->
 }
 
 /// Reference integral of the LTC whose world→cosine map is `a` over a cell:
-/// exact clipping, f64, chord polygon.
+/// exact clipping, f64, chord polygon. A level-1 cell whose corners ±x̂ map
+/// within 1e-9 of the horizon takes the closed form
+/// ([`super::quarter_sphere::quarter_sphere_share_f64`]): its clipped
+/// polygon then joins two nearly antipodal points on the horizon, and
+/// rounding picks the half of the horizon between them (at (A·x̂)_z = 0
+/// exactly the four children summed to 0.004–2 of the lobe).
 pub fn cell_integral_reference(cell: Cell, a: &DMat3, orientation: f64) -> f64 {
+    if cell.depth == 1 && (*a * DVec3::X).z.abs() <= 1e-9 * a.row(2).length() {
+        let k = (cell.ix + 2 * cell.iy) as usize;
+        if let Some(share) = super::quarter_sphere::quarter_sphere_share_f64(a, k) {
+            return share;
+        }
+    }
     cell_integral_chords(cell, a, orientation, MAX_CHORD_TURNS)
 }
 

@@ -213,6 +213,31 @@ pub fn quarter_sphere_children_x4(rows: &[[f32; 3]; 3], orientation: f32) -> Opt
     })
 }
 
+/// Child k's share in f64 with exact arctangents, for the f64 reference
+/// near the lune, where its polygons fail ([`super::polygon`]); `a` is the
+/// world → cosine map. The same formulas as the f32 kernel (x-y parts, no
+/// â·b̂), with â and b̂ from A⁻ᵀ itself; `None` when a cell's plane lies on
+/// the horizon or the map is singular.
+pub fn quarter_sphere_share_f64(a: &glam::DMat3, k: usize) -> Option<f64> {
+    use glam::DVec3;
+    let inverse_transpose = a.inverse().transpose();
+    let (ca, cb) = (inverse_transpose * DVec3::Z, inverse_transpose * DVec3::Y);
+    let (ca, cb) = (ca.try_normalize()?, cb.try_normalize()?);
+    let d = (ca.x * cb.y - ca.y * cb.x).abs();
+    let p = ca.x * cb.x + ca.y * cb.y;
+    let (a_xy, b_xy) = (ca.x * ca.x + ca.y * ca.y, cb.x * cb.x + cb.y * cb.y);
+    let y = [-p, cb.z * a_xy - ca.z * p, ca.z * b_xy - cb.z * p];
+    if d == 0.0 && y.contains(&0.0) {
+        return None;
+    }
+    let (s_z, s_y) = (S_Z[k] as f64, S_Y[k] as f64);
+    let theta_3 = d.atan2(s_z * s_y * y[0]);
+    let theta_1 = d.atan2(-s_y * y[1]);
+    let theta_2 = d.atan2(-s_z * y[2]);
+    let share = (theta_3 + s_z * ca.z * theta_1 + s_y * cb.z * theta_2) / std::f64::consts::TAU;
+    Some(share.max(0.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -274,8 +299,9 @@ mod tests {
     /// map, as the x axis's image approaches the horizon, where the polygon
     /// routes fail: the level-1 cells' corners ±x̂ then map to nearly
     /// antipodal points on the horizon, and which half of the horizon joins
-    /// them is decided by rounding. At d = 0 exactly the reference takes the
-    /// map nudged by 1e-10 (it fails there itself). The level-1 kernel
+    /// them is decided by rounding. At d = 0 exactly the reference's own
+    /// polygons fail too, and it takes the closed form in f64 (tested
+    /// below against its polygons off the lune). The level-1 kernel
     /// (mapped triangles, this form near the lune) is held to 2e-5 (its
     /// triangles measure up to 8e-6). Also prints the f32 polygon clip's
     /// error, which level 1 fell back to for
@@ -295,10 +321,7 @@ mod tests {
         {
             let (mut worst, mut worst_clip, mut worst_level1) = (0.0f64, 0.0f64, 0.0f64);
             for (rows, o) in maps(7 + i as u64, eps, 2000) {
-                let mut a = DMat3::from_cols_array_2d(&rows.map(|r| r.map(f64::from))).transpose();
-                if eps == 0.0 {
-                    a.x_axis.z = 1e-10 * a.row(2).length();
-                }
+                let a = DMat3::from_cols_array_2d(&rows.map(|r| r.map(f64::from))).transpose();
                 let o64 = o as f64;
                 let r: [f64; 4] =
                     std::array::from_fn(|k| cell_integral_reference(root.child(k), &a, o64));
@@ -324,6 +347,41 @@ mod tests {
             // lobes: b̂'s x-y part, 2e-6 of b̂, a few % off).
             assert!(worst < 2e-6, "eps {eps}: {worst:e}");
         }
+    }
+
+    /// The f64 closed form (the reference's at the lune) against the f64
+    /// polygons away from it, and at (A·x̂)_z = 0 exactly, where the
+    /// polygons fail, the reference's four children sum to the lobe.
+    /// Mutation check: â from A⁻¹ instead of A⁻ᵀ fails it.
+    #[test]
+    fn f64_closed_form_is_the_reference_at_the_lune() {
+        let root = Cell {
+            depth: 0,
+            ix: 0,
+            iy: 0,
+        };
+        let mut worst = 0.0f64;
+        for (i, eps) in [1.0, 1e-2, 1e-6, 0.0].into_iter().enumerate() {
+            for (rows, o) in maps(70 + i as u64, eps, 1000) {
+                let a = DMat3::from_cols_array_2d(&rows.map(|r| r.map(f64::from))).transpose();
+                let o = o as f64;
+                if eps > 0.0 {
+                    for k in 0..4 {
+                        let polygon =
+                            crate::ltc::polygon::cell_integral_chords(root.child(k), &a, o, 1e-3);
+                        let closed = quarter_sphere_share_f64(&a, k).unwrap();
+                        worst = worst.max((polygon - closed).abs());
+                    }
+                } else {
+                    let sum: f64 = (0..4)
+                        .map(|k| cell_integral_reference(root.child(k), &a, o))
+                        .sum();
+                    assert!((sum - 1.0).abs() < 1e-12, "sum {sum} for {rows:?}");
+                }
+            }
+        }
+        println!("f64 closed form vs polygons: {worst:.2e}");
+        assert!(worst < 1e-12, "{worst:e}");
     }
 
     /// The four-lane kernel against the scalar one, bit for bit, including
