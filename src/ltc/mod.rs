@@ -25,6 +25,10 @@
 //! - [`children`]: the per-shading-point mixture ([`ShadingLtc`]) and the
 //!   4-child integrals of a node — the API the product guider calls;
 //! - [`children_x16`]: the same 4 children × 4 edges in one f32x16;
+//! - [`level1`] and [`quarter_sphere`]: the root's children, which are
+//!   quarter spheres with antipodal corners: exactly clipped triangles from
+//!   their mapped vertices, and near the lune (and for the cosine lobe) a
+//!   closed form of three arctangents;
 //! - [`coarse`] (with its tables, [`coarse_table`], and the wide
 //!   [`coarse_x16`]): levels 2–5, whose parallels need several chords, each
 //!   vertex mapped once and each edge clipped exactly at the horizon;
