@@ -37,7 +37,7 @@
 //! quantities are differences of products taken to an ulp, and the y come
 //! from the x-y parts, never from â·b̂. At d = 0 with a y = 0 a cell's plane
 //! is the horizon itself, and the shares are lunes of that hemisphere
-//! ([`plane_on_horizon`]). The tests measure ≤ 1e-6 against the f64
+//! (`plane_on_horizon`). The tests measure ≤ 1e-6 against the f64
 //! reference down to d = 0; only singular or non-finite maps are left to the
 //! caller.
 //!
