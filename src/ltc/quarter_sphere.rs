@@ -246,13 +246,10 @@ mod tests {
     use crate::sampling::{Rng, square_to_uniform_sphere};
     use glam::{DMat3, DVec3};
 
+    /// The f32 rows and orientation the kernels get, as the lobe builds them.
     fn rows_of(a: &DMat3) -> ([[f32; 3]; 3], f32) {
-        let r = a.transpose();
-        let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
-        (
-            [row(0), row(1), row(2)],
-            if a.determinant() < 0.0 { -1.0 } else { 1.0 },
-        )
+        let g = crate::ltc::children::GlossyLtc::from_map(*a, 1.0, &Default::default());
+        (g.rows, g.orientation)
     }
 
     /// An LTC-like map: into a random frame turned by a random azimuth, then
