@@ -23,6 +23,7 @@ fn main() {
         max_depth: Some(10),
         roulette: RouletteMode::Off,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     let opts = RenderOptions {
         method: Method::Radiance,
@@ -60,6 +61,7 @@ fn main() {
         max_depth: Some(9),
         roulette: RouletteMode::Off,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     for c in 0..G * G {
         let (cx, cy) = (c % G, c / G);

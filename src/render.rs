@@ -128,6 +128,7 @@ impl Default for RenderOptions {
                 max_depth: Some(10),
                 roulette: crate::integrator::path::RouletteMode::Classic,
                 adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
+                defer_guide_pdf: true,
             },
             progress: false,
             snapshot_times: Vec::new(),

@@ -372,6 +372,7 @@ fn attribution_refuses_options_it_cannot_run() {
         AttributionOptions {
             path: PathSettings {
                 adrrs_window: 0.5,
+                defer_guide_pdf: true,
                 ..good.path
             },
             ..good.clone()

@@ -30,6 +30,7 @@ fn agree(name: &str, method: Method, spp: u32, roulette: RouletteMode, nee: bool
         max_depth: scene.max_depth.or(Some(10)),
         roulette,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     // The plan is off: with it, a run whose strategy trial finds path
     // tracing more efficient images path tracing's passes alone, and this
@@ -162,6 +163,7 @@ fn a_fixed_seed_gives_a_fixed_image_whatever_the_thread_count() {
                         max_depth: Some(6),
                         roulette: RouletteMode::Adrrs,
                         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+                        defer_guide_pdf: true,
                     },
                 )
             };
@@ -203,6 +205,7 @@ fn product_with_lobe_reuse_gives_a_fixed_image_whatever_the_thread_count() {
                     max_depth: Some(6),
                     roulette: RouletteMode::Classic,
                     adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+                    defer_guide_pdf: true,
                 },
             )
         };
@@ -316,6 +319,7 @@ fn adrrs_changes_no_expectation() {
                         max_depth: scene.max_depth,
                         roulette,
                         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+                        defer_guide_pdf: true,
                     },
                 )
             };
@@ -377,6 +381,7 @@ fn the_adrrs_adjoint_with_nee_includes_the_direct_light() {
             max_depth: scene.max_depth,
             roulette,
             adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+            defer_guide_pdf: true,
         };
         let opts = RenderOptions {
             use_plan: false,
@@ -414,6 +419,7 @@ fn short_paths(nee: bool, roulette: RouletteMode) -> PathSettings {
         max_depth: Some(4),
         roulette,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     }
 }
 

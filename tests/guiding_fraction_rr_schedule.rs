@@ -432,6 +432,7 @@ fn gap_radiance_at_16_spp() -> (ltcguide::scene::Scene, ltcguide::render::Render
             max_depth: Some(6),
             roulette: RouletteMode::Adrrs,
             adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+            defer_guide_pdf: true,
         },
         use_plan: false,
         ..Default::default()

@@ -34,6 +34,7 @@ fn sphere_light_direct_lighting_matches_closed_form_with_and_without_nee() {
             max_depth: Some(2),
             roulette: RouletteMode::Off,
             adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+            defer_guide_pdf: true,
         };
         for (k, &x) in points.iter().enumerate() {
             let to = c - x;
@@ -103,6 +104,7 @@ fn non_finite_bsdf_values_are_counted_by_the_path_loop() {
         max_depth: Some(3),
         roulette: RouletteMode::Off,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     let mut rng = Rng::new(3, 0);
     let mut counters = RenderCounters::default();
@@ -218,6 +220,7 @@ fn non_finite_adjoint_estimates_are_counted_by_the_path_loop() {
         max_depth: Some(3),
         roulette: RouletteMode::Adrrs,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     let mut rng = Rng::new(5, 0);
     let mut counters = RenderCounters::default();
@@ -309,6 +312,7 @@ fn reused_record_buffers_hold_exactly_the_calls_records() {
         max_depth: Some(3),
         roulette: RouletteMode::Classic,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     let (w, h) = (scene.camera.width, scene.camera.height);
     let call = |passes: std::ops::Range<u64>, buffers: &mut Vec<RecordBuffer>| {
@@ -343,6 +347,7 @@ fn smooth_plastic_floor() -> (ltcguide::scene::Scene, PathSettings) {
         max_depth: scene.max_depth,
         roulette: RouletteMode::Classic,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     (scene, path)
 }
@@ -435,6 +440,7 @@ fn floor_under_uniform_sky() -> (ltcguide::scene::Scene, PathSettings) {
         max_depth: scene.max_depth,
         roulette: RouletteMode::Off,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     (scene, path)
 }
@@ -559,6 +565,7 @@ fn nee_from_a_point_on_an_emitting_sphere_matches_the_closed_form() {
                 max_depth: scene.max_depth,
                 roulette: RouletteMode::Off,
                 adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+                defer_guide_pdf: true,
             },
             ..Default::default()
         };

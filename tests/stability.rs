@@ -329,6 +329,7 @@ fn stiff_scene_renders_finite_and_methods_agree() {
                 max_depth: scene.max_depth,
                 roulette: RouletteMode::Classic,
                 adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+                defer_guide_pdf: true,
             },
             product_kernel: ProductKernel::Simd,
             ..Default::default()

@@ -117,6 +117,13 @@ pub struct GuidedArgs {
     /// estimated second moment over the leaf's training samples is least.
     #[arg(long, value_enum, default_value_t = FractionLearning::Kl)]
     pub bsdf_fraction_learning: FractionLearning,
+    /// Guided methods without NEE: compute the guide's pdf of every BSDF
+    /// sample at once. By default a pdf that costs a descent (the product's)
+    /// is computed only if the path brings radiance, which most paths
+    /// without NEE do not; the estimator is the same, only roulette reads a
+    /// stand-in meanwhile (docs/results-reading.md, session 62).
+    #[arg(long)]
+    pub eager_guide_pdf: bool,
 }
 
 /// Product guiding's settings, shared by render and compare.

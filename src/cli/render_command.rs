@@ -194,6 +194,7 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
             max_depth,
             roulette: args.rr,
             adrrs_window: args.adrrs_window,
+            defer_guide_pdf: !args.guided.eager_guide_pdf,
         },
         progress: true,
         snapshot_times: Vec::new(),

@@ -95,6 +95,7 @@ pub fn default_path_settings(scene: &Scene, method: Method) -> PathSettings {
             RouletteMode::Classic
         },
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     }
 }
 
@@ -120,6 +121,7 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
         path_for: default_path_settings,
         nee: args.nee,
         guided_roulette: Some((args.guided_rr, args.adrrs_window)),
+        defer_guide_pdf: !args.guided.eager_guide_pdf,
         training_stop: args.guided.training_stop,
         cosine_lobes: args.product.cosine_lobes,
         product_vertices: args.product.product_vertices,

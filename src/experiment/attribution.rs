@@ -109,6 +109,7 @@ impl AttributeArgs {
                 max_depth,
                 roulette: self.rr,
                 adrrs_window: crate::guiding::adrrs::PAPER_WINDOW,
+                defer_guide_pdf: true,
             },
             guide_fraction: self.guide_fraction,
             other_roulette: self.other_rr,

@@ -52,6 +52,8 @@ pub struct CompareOptions {
     /// window ratio s (`None`: as `path_for` says). Unguided path tracing
     /// keeps its own, since ADRRS needs a guide's adjoint estimates.
     pub guided_roulette: Option<(RouletteMode, f32)>,
+    /// [`PathSettings::defer_guide_pdf`] for every method.
+    pub defer_guide_pdf: bool,
     /// Guided methods: the rule that ends training.
     pub training_stop: TrainingStop,
     /// Product guiding's weights at vertices whose lobes are all cosines.
@@ -155,6 +157,7 @@ fn path_settings(scene: &Scene, method: Method, opts: &CompareOptions) -> PathSe
             NeeChoice::All => true,
             NeeChoice::None => false,
         },
+        defer_guide_pdf: opts.defer_guide_pdf,
         ..match opts.guided_roulette {
             Some((roulette, adrrs_window)) if method != Method::Pt => PathSettings {
                 roulette,

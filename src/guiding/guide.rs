@@ -358,6 +358,7 @@ mod tests {
             bsdf: &bsdf,
             needs_adjoint: true,
             vertex_index: 1,
+            revisit: false,
         };
         let at = guide.locate(ctx.p);
         guide

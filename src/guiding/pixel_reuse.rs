@@ -171,14 +171,16 @@ pub struct ProductCache {
 
 impl ProductCache {
     /// The first vertex's weights for `key`: the kept ones when their key
-    /// matches, else what `build` puts in their place.
+    /// matches, else what `build` puts in their place. A `revisit` (the
+    /// vertex built again for a deferred pdf) is not counted as a reuse.
     pub fn first_vertex(
         &mut self,
         key: LobeKey,
+        revisit: bool,
         build: impl FnOnce(&mut LobeSlot),
     ) -> &mut LobeSlot {
         if self.first_key.is_some_and(|kept| kept.matches(&key)) {
-            self.reused += 1;
+            self.reused += !revisit as u64;
         } else {
             self.built += 1;
             build(&mut self.first);
@@ -252,8 +254,8 @@ mod tests {
         let mut builds = 0;
         let a = key(0.4, 0.1, Vec3::Z, Vec3::new(0.6, 0.0, 0.8));
         let b = key(0.4, 0.1, Vec3::X, Vec3::new(0.6, 0.0, 0.8));
-        let mut get = |cache: &mut ProductCache, k: LobeKey| {
-            let slot = cache.first_vertex(k, |slot| {
+        let mut get_or_revisit = |cache: &mut ProductCache, k: LobeKey, revisit: bool| {
+            let slot = cache.first_vertex(k, revisit, |slot| {
                 builds += 1;
                 slot.set_radiance_only(builds as f32);
             });
@@ -262,13 +264,22 @@ mod tests {
                 _ => unreachable!(),
             }
         };
-        assert_eq!(get(&mut cache, a), 1.0);
-        assert_eq!(get(&mut cache, a), 1.0);
-        assert_eq!(get(&mut cache, b), 2.0);
-        assert_eq!(get(&mut cache, a), 3.0);
+        assert_eq!(get_or_revisit(&mut cache, a, false), 1.0);
+        assert_eq!(
+            get_or_revisit(&mut cache, a, true),
+            1.0,
+            "a revisit is no reuse"
+        );
+        assert_eq!(get_or_revisit(&mut cache, a, false), 1.0);
+        assert_eq!(get_or_revisit(&mut cache, b, false), 2.0);
+        assert_eq!(get_or_revisit(&mut cache, a, false), 3.0);
         let mut counters = RenderCounters::default();
         cache.end_block(&mut counters);
-        assert_eq!(get(&mut cache, a), 4.0, "a new block builds its own");
+        assert_eq!(
+            get_or_revisit(&mut cache, a, false),
+            4.0,
+            "a new block builds its own"
+        );
         assert_eq!(
             (counters.product_lobes_reused, counters.product_lobes_built),
             (1, 3)

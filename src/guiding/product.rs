@@ -325,7 +325,7 @@ impl ProductModel<'_> {
         let build = |slot: &mut LobeSlot| self.build(&lobes, ctx, slot);
         if self.reuse_in_pixel && ctx.vertex_index == 0 {
             cache
-                .first_vertex(LobeKey::new(lobes, ctx), build)
+                .first_vertex(LobeKey::new(lobes, ctx), ctx.revisit, build)
                 .weights()
         } else {
             cache.other_vertex(build).weights()

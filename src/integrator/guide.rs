@@ -18,6 +18,9 @@ pub struct VertexContext<'a> {
     pub needs_adjoint: bool,
     /// Index of the vertex along its path (0: the camera ray's hit).
     pub vertex_index: u32,
+    /// The vertex is built again at the path's end, for a pdf the path loop
+    /// deferred (`super::deferred_pdf`): caches do not count it as a reuse.
+    pub revisit: bool,
 }
 
 /// A per-vertex guiding distribution over world directions, mixed with BSDF

@@ -3,6 +3,7 @@
 //! pass owns its own random stream, so the image does not depend on the
 //! thread count or scheduling).
 
+pub mod deferred_pdf;
 pub mod first_vertex;
 pub mod guide;
 pub mod path;

@@ -3,6 +3,7 @@
 //! `max_depth` semantics, Russian roulette, and an optional guide mixed with
 //! BSDF sampling by one-sample MIS.
 
+use super::deferred_pdf::DeferredPdf;
 use super::guide::{Guide, GuideVertex, PathVertex, VertexContext};
 use super::stats::RenderCounters;
 use crate::emitter::LightSample;
@@ -31,6 +32,11 @@ pub struct PathSettings {
     /// [`PAPER_WINDOW`](crate::guiding::adrrs::PAPER_WINDOW)). A wider
     /// window kills fewer paths: less time saved, less variance added.
     pub adrrs_window: f32,
+    /// The guide's pdf of a BSDF sample at a path's first guided vertex is
+    /// computed only if the path brings radiance (`super::deferred_pdf`);
+    /// off: always at once. Without NEE only. The estimator is the same
+    /// either way; roulette reads a stand-in meanwhile.
+    pub defer_guide_pdf: bool,
 }
 
 /// Depth from which classic roulette applies (Mitsuba's `rr_depth`).
@@ -110,6 +116,21 @@ fn shadow_ray_clear(scene: &Scene, ls: &LightSample, counters: &mut RenderCounte
     tmax > 0.0 && !scene.occluded_except(ls.origin, ls.wi, tmax, ls.prim)
 }
 
+/// Where a contribution goes: after a deferred guide pdf, to the sum the
+/// pdf will rescale.
+#[inline]
+fn accumulator<'a>(
+    radiance: &'a mut Spectrum,
+    deferred_radiance: &'a mut Spectrum,
+    deferring: bool,
+) -> &'a mut Spectrum {
+    if deferring {
+        deferred_radiance
+    } else {
+        radiance
+    }
+}
+
 /// Estimates the radiance arriving at the camera along (o, d).
 #[allow(clippy::too_many_arguments)]
 pub fn trace_path<G: Guide>(
@@ -130,6 +151,10 @@ pub fn trace_path<G: Guide>(
     scratch.contributions.clear();
     let max_depth = settings.max_depth.unwrap_or(u32::MAX);
     let mut radiance = Spectrum::ZERO;
+    // What arrived after a deferred guide pdf, in the stand-in's units.
+    let mut deferred_radiance = Spectrum::ZERO;
+    let mut deferred: Option<DeferredPdf<G::Location>> = None;
+    let may_defer = settings.defer_guide_pdf && !settings.nee;
     let mut throughput = Spectrum::ONE;
     // State of the previous scattering event, for MIS on emitter hits.
     let mut prev_pdf = 0.0f32;
@@ -157,7 +182,11 @@ pub fn trace_path<G: Guide>(
                     } else {
                         power_heuristic(prev_pdf, scene.lights.pdf_infinite(d))
                     };
-                    add(throughput * le * w, scratch, &mut radiance);
+                    add(
+                        throughput * le * w,
+                        scratch,
+                        accumulator(&mut radiance, &mut deferred_radiance, deferred.is_some()),
+                    );
                 }
             }
             break;
@@ -177,7 +206,11 @@ pub fn trace_path<G: Guide>(
                 } else {
                     power_heuristic(prev_pdf, scene.lights.pdf_area(light, prev_p, it.p, it.ng))
                 };
-                add(throughput * le * w, scratch, &mut radiance);
+                add(
+                    throughput * le * w,
+                    scratch,
+                    accumulator(&mut radiance, &mut deferred_radiance, deferred.is_some()),
+                );
             }
         }
         if segments >= max_depth {
@@ -212,6 +245,7 @@ pub fn trace_path<G: Guide>(
                     bsdf: &bsdf,
                     needs_adjoint: adrrs_here,
                     vertex_index: segments - 1,
+                    revisit: false,
                 },
                 location,
                 cache,
@@ -268,7 +302,11 @@ pub fn trace_path<G: Guide>(
             }
         }
         if let Some(c) = nee_reflected {
-            add(throughput * c, scratch, &mut radiance);
+            add(
+                throughput * c,
+                scratch,
+                accumulator(&mut radiance, &mut deferred_radiance, deferred.is_some()),
+            );
         }
 
         // Choose the next direction: guide or BSDF, one-sample MIS.
@@ -352,8 +390,33 @@ pub fn trace_path<G: Guide>(
                     (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, 0.0, a, s.weight * s.pdf);
                 } else if let Some(g) = guide_vertex.as_mut() {
                     let a = g.bsdf_fraction();
-                    let pg = g.pdf(dir);
+                    let defer_at = location.filter(|_| may_defer && deferred.is_none());
+                    // The guide's part of a deferred mixture stands at 0.
+                    let pg = if defer_at.is_some() { 0.0 } else { g.pdf(dir) };
                     let p = a * s.pdf + (1.0 - a) * pg;
+                    if let Some(location) = defer_at {
+                        counters.guide_pdfs_deferred += 1;
+                        let ctx = VertexContext {
+                            p: it.p,
+                            ng: it.ng,
+                            frame: &it.frame,
+                            wo_local: wo,
+                            bsdf: &bsdf,
+                            needs_adjoint: false,
+                            vertex_index: segments - 1,
+                            revisit: false,
+                        };
+                        deferred = Some(DeferredPdf::new(
+                            &ctx,
+                            location,
+                            dir,
+                            a,
+                            s.pdf,
+                            p,
+                            throughput,
+                            scratch.vertices.len(),
+                        ));
+                    }
                     let f = s.weight * s.pdf;
                     (wi_world, weight, pdf_mix, is_delta, eta) = (dir, f / p, p, false, s.eta);
                     (pdf_bsdf, pdf_guide, alpha, f_value) = (s.pdf, pg, a, f);
@@ -417,6 +480,32 @@ pub fn trace_path<G: Guide>(
         }
     }
 
+    if let Some(d) = deferred
+        && deferred_radiance != Spectrum::ZERO
+    {
+        counters.guide_pdfs_resolved += 1;
+        match d.resolve(guide, cache, counters) {
+            Some((pdf_guide, pdf_mix)) => {
+                let factor = d.rescale(pdf_mix);
+                radiance += deferred_radiance * factor;
+                if learning {
+                    d.fix_records(
+                        &mut scratch.vertices,
+                        &mut scratch.contributions,
+                        factor,
+                        pdf_guide,
+                        pdf_mix,
+                    );
+                }
+            }
+            None => {
+                counters.invalid_scattering += 1;
+                d.drop_later(&mut scratch.contributions);
+            }
+        }
+    } else {
+        radiance += deferred_radiance;
+    }
     if !is_finite3(radiance) || radiance.min_element() < 0.0 {
         counters.nonfinite_samples += 1;
         return Spectrum::ZERO;

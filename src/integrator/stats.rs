@@ -30,6 +30,11 @@ pub struct RenderCounters {
     /// Paths ended at a surface that reflects nothing
     /// ([`crate::bsdf::Material::reflects_nothing`]), after its emission.
     pub ended_at_black_surfaces: u64,
+    /// BSDF samples whose guide pdf was left for the path's end, and those
+    /// of them whose path brought radiance, so that it was computed
+    /// (`super::deferred_pdf`).
+    pub guide_pdfs_deferred: u64,
+    pub guide_pdfs_resolved: u64,
     /// Adjoint-driven roulette decisions.
     #[serde(flatten)]
     pub adrrs: AdrrsCounters,
@@ -52,6 +57,8 @@ impl RenderCounters {
         self.product_lobes_reused += o.product_lobes_reused;
         self.product_lobes_built += o.product_lobes_built;
         self.ended_at_black_surfaces += o.ended_at_black_surfaces;
+        self.guide_pdfs_deferred += o.guide_pdfs_deferred;
+        self.guide_pdfs_resolved += o.guide_pdfs_resolved;
         self.adrrs.merge(&o.adrrs);
     }
 }

@@ -68,6 +68,7 @@ pub fn render_spp(scene: &Scene, method: Method, spp: u32, seed: u64, nee: bool)
         max_depth: scene.max_depth.or(Some(10)),
         roulette: RouletteMode::Classic,
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     };
     render(scene, &options(method, spp, seed, path)).expect("render")
 }

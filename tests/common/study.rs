@@ -18,6 +18,7 @@ pub fn settings(scene: &Scene, method: Method) -> PathSettings {
             RouletteMode::Adrrs
         },
         adrrs_window: ltcguide::guiding::adrrs::PAPER_WINDOW,
+        defer_guide_pdf: true,
     }
 }
 
@@ -43,6 +44,7 @@ pub fn compare_options(methods: Vec<Method>, out_dir: &Path) -> CompareOptions {
         path_for: settings,
         nee: ltcguide::experiment::compare::NeeChoice::Paper,
         guided_roulette: None,
+        defer_guide_pdf: true,
         training_stop: ltcguide::guiding::schedule::TrainingStop::Budget,
         cosine_lobes: CosineLobes::Radiance,
         product_vertices: 1,

@@ -203,6 +203,7 @@ pub fn first_vertex<'a>(
         bsdf,
         needs_adjoint: false,
         vertex_index: 0,
+        revisit: false,
     }
 }
 
