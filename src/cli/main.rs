@@ -118,10 +118,11 @@ pub struct GuidedArgs {
     #[arg(long, value_enum, default_value_t = FractionLearning::Kl)]
     pub bsdf_fraction_learning: FractionLearning,
     /// Guided methods without NEE: compute the guide's pdf of every BSDF
-    /// sample at once. By default a pdf that costs a descent (the product's)
-    /// is computed only if the path brings radiance, which most paths
-    /// without NEE do not; the estimator is the same, only roulette reads a
-    /// stand-in meanwhile (docs/results-reading.md, session 62).
+    /// sample at once. By default the pdf of a BSDF sample at a path's first
+    /// guided vertex (a descent, two under product weights) is computed
+    /// only if the path brings radiance, which most paths without NEE do
+    /// not; the estimator is the same, only roulette reads a stand-in
+    /// meanwhile (docs/results-reading.md, session 62).
     #[arg(long)]
     pub eager_guide_pdf: bool,
 }

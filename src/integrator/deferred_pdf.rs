@@ -61,7 +61,8 @@ pub struct DeferredPdf<L> {
     dir: Vec3,
     alpha: f32,
     pdf_bsdf: f32,
-    /// α·p_bsdf + (1 − α)·p̃: the mixture pdf the path's throughput holds.
+    /// α·p_bsdf, the mixture with the guide's part at 0: what the path's
+    /// throughput holds until the exact pdf is known.
     stand_in_mix: f32,
     /// Scalar throughput before the vertex (its record's guard).
     throughput_before: f32,
@@ -99,8 +100,8 @@ impl<L: Copy> DeferredPdf<L> {
     }
 
     /// The exact (guide pdf, mixture pdf) of the sampled direction, from the
-    /// vertex built again; `None` where they are unusable (then counted in
-    /// `invalid_scattering` by the caller, as an eager sample would be).
+    /// vertex built again; `None` where they are unusable (the caller counts
+    /// it in `invalid_scattering` and drops what arrived after it).
     pub fn resolve<G: Guide<Location = L>>(
         &self,
         guide: &G,
