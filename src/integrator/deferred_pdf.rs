@@ -61,9 +61,6 @@ pub struct DeferredPdf<L> {
     dir: Vec3,
     alpha: f32,
     pdf_bsdf: f32,
-    /// α·p_bsdf, the mixture with the guide's part at 0: what the path's
-    /// throughput holds until the exact pdf is known.
-    stand_in_mix: f32,
     /// Scalar throughput before the vertex (its record's guard).
     throughput_before: f32,
     /// Index of the vertex in the path's learning records.
@@ -71,14 +68,12 @@ pub struct DeferredPdf<L> {
 }
 
 impl<L: Copy> DeferredPdf<L> {
-    #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &VertexContext,
         location: L,
         dir: Vec3,
         alpha: f32,
         pdf_bsdf: f32,
-        stand_in_mix: f32,
         throughput_before: Spectrum,
         record: usize,
     ) -> Self {
@@ -93,7 +88,6 @@ impl<L: Copy> DeferredPdf<L> {
             dir,
             alpha,
             pdf_bsdf,
-            stand_in_mix,
             throughput_before: luminance(throughput_before),
             record,
         }
@@ -126,9 +120,10 @@ impl<L: Copy> DeferredPdf<L> {
     }
 
     /// The factor that turns what arrived after the vertex into its exact
-    /// value, given the exact mixture pdf.
+    /// value, given the exact mixture pdf: the path's throughput holds
+    /// α·p_bsdf, the mixture with the guide's part at 0.
     pub fn rescale(&self, pdf_mix: f32) -> f32 {
-        self.stand_in_mix / pdf_mix
+        self.alpha * self.pdf_bsdf / pdf_mix
     }
 
     /// Makes the path's learning records exact: the throughputs from the

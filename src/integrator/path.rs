@@ -416,7 +416,6 @@ pub fn trace_path<G: Guide>(
                             dir,
                             a,
                             s.pdf,
-                            p,
                             throughput,
                             scratch.vertices.len(),
                         ));
