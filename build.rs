@@ -12,6 +12,7 @@
 use std::env;
 
 fn main() {
+    zmm_kernels_cfg();
     println!("cargo:rerun-if-changed=src/texture/jpeg_shim.c");
     let include = env::var_os("DEP_JPEG_INCLUDE")
         .expect("DEP_JPEG_INCLUDE unset: mozjpeg-sys must be a [dependencies] entry");
@@ -23,4 +24,16 @@ fn main() {
         .file("src/texture/jpeg_shim.c")
         .warnings(true)
         .compile("ltc_jpeg_shim");
+}
+
+/// `zmm_kernels`: the wide LTC kernels hold their 16 lanes in one zmm
+/// register, i.e. the build has AVX-512 and the `ymm-kernels` feature is off
+/// (src/ltc/lanes.rs says why a build would turn it on).
+fn zmm_kernels_cfg() {
+    println!("cargo::rustc-check-cfg=cfg(zmm_kernels)");
+    let features = env::var("CARGO_CFG_TARGET_FEATURE").unwrap_or_default();
+    let avx512f = features.split(',').any(|f| f == "avx512f");
+    if avx512f && env::var_os("CARGO_FEATURE_YMM_KERNELS").is_none() {
+        println!("cargo::rustc-cfg=zmm_kernels");
+    }
 }

@@ -99,8 +99,28 @@ pub fn safe_sqrt(x: f32) -> f32 {
 
 /// ‖M‖_F, the Frobenius norm: how much an LTC map magnifies directions at
 /// most (within √3), cheap and without eigenvalues.
+///
+/// The squares are summed as one dependent chain: as nine independent
+/// products, LLVM packed eight of them into a 512-bit multiply, and on Intel
+/// cores one such instruction per shading point lowers the clock of the
+/// whole render (see [`narrow_dvec3`]).
 pub fn frobenius_norm(m: &glam::DMat3) -> f64 {
-    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+    m.to_cols_array()
+        .iter()
+        .fold(0.0f64, |sum, &x| x.mul_add(x, sum))
+        .sqrt()
+}
+
+/// A DVec3 rounded to f32, in a call of its own. Inlined next to other
+/// conversions, LLVM packs eight of them into one 512-bit vcvtpd2ps. Any
+/// 512-bit floating-point instruction, even an add or a conversion, makes
+/// an Intel core lower its clock for a while after it, so one per shading
+/// point slows everything the render does (measured in
+/// `docs/results-reading.md`, session 63); a build with the `ymm-kernels`
+/// feature keeps such instructions off the per-vertex path.
+#[inline(never)]
+pub fn narrow_dvec3(v: glam::DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
 }
 
 /// κ_F = ‖A‖_F·‖A⁻¹‖_F, the Frobenius condition number of a map A.

@@ -173,7 +173,7 @@ impl GlossyLtc {
         )
         .clamp(1, 64) as u32;
         let r = a.transpose();
-        let row = |i: usize| [r.col(i).x as f32, r.col(i).y as f32, r.col(i).z as f32];
+        let row = |i: usize| crate::math::narrow_dvec3(r.col(i));
         let orientation = if det < 0.0 { -1.0 } else { 1.0 };
         GlossyLtc {
             weight,
@@ -189,10 +189,7 @@ impl GlossyLtc {
                 .plain_quad_depth
                 .clamp(EXACT_CLIP_DEPTH + 1, FIRST_PLAIN_QUAD_DEPTH),
             exact_crossing_depth: opts.exact_crossing_depth,
-            cofactor_z: {
-                let q = r.x_axis.cross(r.y_axis);
-                [q.x as f32, q.y as f32, q.z as f32]
-            },
+            cofactor_z: crate::math::narrow_dvec3(r.x_axis.cross(r.y_axis)),
             stokes_nodes: if opts.stokes_parallels {
                 super::parallel_quadrature::node_counts(&a)
             } else {

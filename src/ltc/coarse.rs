@@ -30,10 +30,10 @@ use super::children::GlossyLtc;
 pub use super::coarse_table::{
     ChildSlots, CoarseNode, MAX_BATCHES, MERIDIAN_ENDS, SLOT_ROOM, coarse_node, precompute,
 };
+use super::lanes::f32x16;
 use super::quad::{unit_cosine_vertex, unit_edge};
 use crate::directional::Cell;
 use glam::Vec3;
-use wide::f32x16;
 
 /// Which slots lie wholly above the horizon (both ends at z ≥ 0), wholly
 /// below it (both at z ≤ 0), start above it (a at z ≥ 0), and cross it

@@ -5,12 +5,12 @@
 //! depth, built on first use.
 
 use super::children::child_grid;
+use super::lanes::f32x16;
 use super::options::{EXACT_CLIP_DEPTH, FIRST_PLAIN_QUAD_DEPTH};
 use super::polygon::parallel_chords;
 use crate::directional::Cell;
 use glam::Vec3;
 use std::sync::OnceLock;
-use wide::f32x16;
 
 /// Most slots of a node: chord vertices in whole batches (at most 51, 3
 /// rows of 17 at level 3 and 1/64 turn; level 2 has 3 + 33 + 3), and one

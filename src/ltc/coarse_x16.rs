@@ -12,13 +12,13 @@ use super::coarse::{
     CoarseNode, CrossingTerms, MAX_BATCHES, MERIDIAN_ENDS, SlotMasks, accumulate, child_integral,
     coarse_node, finish_coarse, reduce4,
 };
+use super::lanes::f32x16;
 use super::simd::{
     above_part_z, horizon_points, permute, splat, successor_lanes, unit_edges_z, unit_vertices,
 };
 use crate::directional::Cell;
 use glam::Vec3;
 use std::mem::MaybeUninit;
-use wide::f32x16;
 
 /// A batch of world vertices mapped by the lobe and normalised.
 #[inline(always)]

@@ -13,8 +13,9 @@
 // `!(x > 0.0)` is deliberate: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::lanes::f32x16;
 use std::sync::LazyLock;
-use wide::{f32x4, f32x16};
+use wide::f32x4;
 
 /// θ/sin θ = acos(x)/√(1 − x²) ≈ Σ c_k·x^k on x ∈ [0, 1]: the minimax
 /// polynomial of degree 7 for the relative error (Remez, then rounded to
@@ -111,11 +112,12 @@ fn newton_rsqrt_step<T: PolyLane>(x: T, y: T) -> T {
 }
 
 /// The hardware estimate of 1/√x on 16 lanes, the one [`rsqrt`] refines
-/// (lane for lane the scalar estimate: vrsqrt14ps on AVX-512, vrsqrtps on
-/// AVX2).
+/// (lane for lane the scalar estimate: vrsqrt14ps on AVX-512, on one zmm
+/// register or, with the `ymm-kernels` feature, on two ymm halves; vrsqrtps
+/// on AVX2).
 #[inline(always)]
 pub fn rsqrt_estimate_x16(x: f32x16) -> f32x16 {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+    #[cfg(all(target_arch = "x86_64", zmm_kernels))]
     {
         use std::arch::x86_64::{__m512, _mm512_rsqrt14_ps};
         // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
@@ -125,11 +127,11 @@ pub fn rsqrt_estimate_x16(x: f32x16) -> f32x16 {
             std::mem::transmute(_mm512_rsqrt14_ps(v))
         }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::rsqrt_estimate(x)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         f32x16::splat(1.0) / x.sqrt()
     }

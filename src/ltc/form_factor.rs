@@ -76,8 +76,17 @@ pub fn form_factor(cell: Cell) -> Vec3 {
         let n = 1u32 << cell.depth;
         table()[level_offset(cell.depth) + (cell.iy * n + cell.ix) as usize]
     } else {
-        cell_form_factor(cell).as_vec3()
+        cell_form_factor_f32(cell)
     }
+}
+
+/// [`cell_form_factor`] rounded to f32, in a call of its own: inlined
+/// four times over (the children next to a pole), LLVM packs the four
+/// cells' f64 arithmetic into 512-bit instructions, which on Intel cores
+/// lower the clock of the whole render (see [`crate::math::narrow_dvec3`]).
+#[inline(never)]
+fn cell_form_factor_f32(cell: Cell) -> Vec3 {
+    cell_form_factor(cell).as_vec3()
 }
 
 /// Whether a node's children lie in the two rows next to a pole (the node
@@ -113,7 +122,7 @@ pub fn gauss_constants(cell: Cell) -> (f32, f32, f32) {
 /// lane by lane.
 pub fn children_form_factors_f32(cell: Cell) -> [Vec3; 4] {
     if next_to_pole(cell) {
-        return std::array::from_fn(|k| cell_form_factor(cell.child(k)).as_vec3());
+        return std::array::from_fn(|k| cell_form_factor_f32(cell.child(k)));
     }
     let (dz, off, k2_scale) = gauss_constants(cell);
     // Child centres: heights by the u bit, azimuths by the v bit.

@@ -25,6 +25,9 @@
 //! - [`children`]: the per-shading-point mixture ([`ShadingLtc`]) and the
 //!   4-child integrals of a node — the API the product guider calls;
 //! - [`children_x16`]: the same 4 children × 4 edges in one f32x16;
+//! - [`lanes`]: that 16-lane type, one zmm register by default, or two
+//!   256-bit halves with the `ymm-kernels` feature (for Intel cores, where
+//!   512-bit arithmetic lowers the clock of the whole render);
 //! - [`level1`] and [`quarter_sphere`]: the root's children, which are
 //!   quarter spheres with antipodal corners: exactly clipped triangles from
 //!   their mapped vertices, and near the lune (and for the cosine lobe) a
@@ -47,6 +50,7 @@ pub mod fast_math;
 pub mod fit;
 pub mod form_factor;
 pub mod ggx;
+pub mod lanes;
 pub mod level1;
 pub mod lobe;
 pub mod options;
@@ -58,11 +62,7 @@ pub mod quad;
 pub mod quad_x16;
 pub mod quarter_sphere;
 pub mod simd;
-#[cfg(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    not(target_feature = "avx512f")
-))]
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2", not(zmm_kernels)))]
 mod simd_avx2;
 pub mod sphere_clip;
 pub mod table;

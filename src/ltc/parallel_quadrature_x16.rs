@@ -6,6 +6,7 @@
 
 use super::children::{GlossyLtc, child_grid};
 use super::fast_math::{RSQRT_FLOOR, rsqrt_x16};
+use super::lanes::f32x16;
 use super::parallel_clip::{Meridians, finish};
 use super::parallel_quadrature::{NodeTable, Parallel, node_table, parallels, stride};
 use super::simd::{
@@ -13,7 +14,7 @@ use super::simd::{
 };
 use crate::directional::Cell;
 use glam::Vec3;
-use wide::{f32x4, f32x8, f32x16};
+use wide::{f32x4, f32x8};
 
 #[inline(always)]
 fn term_x16(p: &Parallel, c: f32x16, s: f32x16, hw: f32x16) -> f32x16 {

@@ -33,6 +33,7 @@ use super::fast_math::{
     DYADIC_BITS, RSQRT_FLOOR, SHORT_EDGE_MIN_COS, dyadic_entry_refs, dyadic_low_is_identity,
     rsqrt_estimate_x16, step_sincos, theta_over_sin_x16,
 };
+use super::lanes::f32x16;
 use super::quad::{POLE_R2_FLOOR, quad_children_scalar};
 use super::simd::{
     BLOCK_OF_EDGE, block_sums, broadcast_coeff, broadcast_entry, broadcast_pair, cross_xy,
@@ -41,7 +42,7 @@ use super::simd::{
 use crate::directional::Cell;
 use glam::Vec3;
 use std::sync::LazyLock;
-use wide::{f32x4, f32x16, i32x4};
+use wide::{f32x4, i32x4};
 
 /// Block order taking edge starts to edge ends.
 const END_BLOCKS: i32 = edge_end_blocks(4);

@@ -1,9 +1,16 @@
 //! f32x16 building blocks shared by the wide kernels, each the lane-wise
 //! twin of a scalar function in [`super::polygon`] (same operations, same
 //! order), so wide and scalar kernels agree bit for bit.
+//!
+//! The lane-crossing operations below have one route per lane layout:
+//! `cfg(zmm_kernels)` (set by `build.rs`: AVX-512 without the `ymm-kernels`
+//! feature, so avx512f is enabled wherever a SAFETY comment below says so)
+//! uses single zmm instructions; AVX2, and AVX-512 builds with the feature,
+//! use the two-halves versions of [`super::simd_avx2`]; other targets a
+//! portable lane loop.
 
+use super::lanes::f32x16;
 use super::polygon::ATAN_COEFFS;
-use wide::f32x16;
 
 #[inline(always)]
 pub fn splat(v: f32) -> f32x16 {
@@ -99,7 +106,7 @@ pub fn load16(a: &[f32], i: usize) -> f32x16 {
 /// Gathers lanes of `v` by constant indices: one vpermps on AVX-512.
 #[inline(always)]
 pub fn permute(v: f32x16, idx: &[i32; 16]) -> f32x16 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{__m512, __m512i, _mm512_permutexvar_ps};
         // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32, and
@@ -111,11 +118,11 @@ pub fn permute(v: f32x16, idx: &[i32; 16]) -> f32x16 {
             std::mem::transmute(_mm512_permutexvar_ps(vi, vv))
         }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::permute(v, idx)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         let a = v.to_array();
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
@@ -152,7 +159,7 @@ pub const fn edge_end_blocks(edges: usize) -> i32 {
 /// one vshuff32x4 on AVX-512.
 #[inline(always)]
 pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{__m512, _mm512_shuffle_f32x4};
         // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
@@ -162,11 +169,11 @@ pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
             std::mem::transmute(_mm512_shuffle_f32x4::<ORDER>(vv, vv))
         }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::shuffle_blocks(v, ORDER)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         let a = v.to_array();
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
@@ -184,7 +191,10 @@ pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
 #[inline(always)]
 pub fn heights_and_radii(u: u32, h: f32, i: f32x16) -> (f32x16, f32x16) {
     debug_assert!(u < 1 << 24);
+    #[cfg(not(feature = "ymm-kernels"))]
     let u = wide::i32x16::splat(u as i32).round_float();
+    #[cfg(feature = "ymm-kernels")]
+    let u = f32x16::splat_converted(u as i32);
     let z = ((u + i) * splat(h)).mul_add(splat(2.0), splat(-1.0));
     // z is an exact dyadic in [−1, 1] for any cell, so 1 ∓ z are exact
     // and their product is ≥ 0: the scalar `max(0)` is a no-op here.
@@ -282,7 +292,7 @@ pub fn horizon_points(a: [f32x16; 3], b: [f32x16; 3]) -> [f32x16; 3] {
 /// issue slots (measured against vaddps on this machine).
 #[inline(always)]
 pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{__m128, __m512i, _mm512_castps128_ps512, _mm512_permutexvar_ps};
         // SAFETY: f32x4 and __m128 are both 16 bytes holding 4 f32, [i32;
@@ -296,11 +306,11 @@ pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
             std::mem::transmute(_mm512_permutexvar_ps(vi, _mm512_castps128_ps512(vv)))
         }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::spread4(v, idx)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         let a = v.to_array();
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| a[idx[l] as usize]))
@@ -311,7 +321,7 @@ pub fn spread4(v: wide::f32x4, idx: &[i32; 16]) -> f32x16 {
 /// mask register, where `!v.simd_ge(..)` costs a `knotw` more.
 #[inline(always)]
 pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{__m512, _CMP_NGE_UQ, _mm512_cmp_ps_mask, _mm512_set1_ps};
         // SAFETY: f32x16 and __m512 are both 64 bytes holding 16 f32;
@@ -321,7 +331,7 @@ pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
             _mm512_cmp_ps_mask::<_CMP_NGE_UQ>(vv, _mm512_set1_ps(c))
         }
     }
-    #[cfg(not(target_feature = "avx512f"))]
+    #[cfg(not(zmm_kernels))]
     {
         (!v.simd_ge(f32x16::splat(c))).to_bitmask() as u16
     }
@@ -336,7 +346,7 @@ pub fn not_ge_mask(v: f32x16, c: f32) -> u16 {
 /// within the array `$base` references.
 macro_rules! broadcast_displaced {
     ($base:expr, $offset:expr, $fallback:expr) => {{
-        #[cfg(target_feature = "avx512f")]
+        #[cfg(zmm_kernels)]
         {
             let v: std::arch::x86_64::__m512;
             // SAFETY: `$base` is a valid reference and the caller's
@@ -353,7 +363,7 @@ macro_rules! broadcast_displaced {
                 std::mem::transmute::<std::arch::x86_64::__m512, f32x16>(v)
             }
         }
-        #[cfg(not(target_feature = "avx512f"))]
+        #[cfg(not(zmm_kernels))]
         {
             f32x16::splat($fallback)
         }
@@ -389,7 +399,7 @@ pub fn broadcast_pair<const J: usize>(pair: &[f32; 2]) -> f32x16 {
 /// (one valignd on AVX-512).
 #[inline(always)]
 pub fn successor_lanes(v: f32x16, next: f32x16) -> f32x16 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{__m512i, _mm512_alignr_epi32};
         // SAFETY: f32x16 and __m512i are both 64 bytes; the lanes are moved
@@ -400,11 +410,11 @@ pub fn successor_lanes(v: f32x16, next: f32x16) -> f32x16 {
             std::mem::transmute(_mm512_alignr_epi32::<1>(n, v))
         }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::successor_lanes(v, next)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         let (a, n) = (v.to_array(), next.to_array());
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
@@ -416,18 +426,18 @@ pub fn successor_lanes(v: f32x16, next: f32x16) -> f32x16 {
 /// A lane mask (all bits set where bit l of `bits` is) for `bitselect`.
 #[inline(always)]
 pub fn lane_mask(bits: u16) -> f32x16 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{_mm512_maskz_mov_epi32, _mm512_set1_epi32};
         // SAFETY: the 16 i32 lanes are reinterpreted as f32 bit patterns
         // (all ones or zero); avx512f is enabled at compile time.
         unsafe { std::mem::transmute(_mm512_maskz_mov_epi32(bits, _mm512_set1_epi32(-1))) }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::lane_mask(bits)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         f32x16::from(std::array::from_fn::<f32, 16, _>(|l| {
             f32::from_bits(if bits >> l & 1 == 1 { u32::MAX } else { 0 })
@@ -440,7 +450,7 @@ pub fn lane_mask(bits: u16) -> f32x16 {
 /// reductions share their shuffles (14 operations instead of 4 × 7).
 #[inline(always)]
 pub fn lane_sums4(v: [f32x16; 4]) -> wide::f32x4 {
-    #[cfg(target_feature = "avx512f")]
+    #[cfg(zmm_kernels)]
     {
         use std::arch::x86_64::{
             __m512, _mm512_add_ps, _mm512_castps512_ps128, _mm512_permute_ps,
@@ -470,11 +480,11 @@ pub fn lane_sums4(v: [f32x16; 4]) -> wide::f32x4 {
             std::mem::transmute(_mm512_castps512_ps128(_mm512_permutexvar_ps(lanes, y)))
         }
     }
-    #[cfg(all(target_feature = "avx2", not(target_feature = "avx512f")))]
+    #[cfg(all(target_feature = "avx2", not(zmm_kernels)))]
     {
         super::simd_avx2::lane_sums4(v)
     }
-    #[cfg(not(any(target_feature = "avx2", target_feature = "avx512f")))]
+    #[cfg(not(any(target_feature = "avx2", zmm_kernels)))]
     {
         wide::f32x4::from(v.map(|v| {
             let a = v.to_array();

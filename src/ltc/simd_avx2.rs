@@ -1,6 +1,7 @@
 //! The lane-crossing f32x16 operations of [`super::simd`], and the 1/√x
-//! estimate of [`super::fast_math`], on AVX2 hosts (no AVX-512), where
-//! `wide` keeps an f32x16 as two 256-bit halves.
+//! estimate of [`super::fast_math`], where the 16 lanes are two 256-bit
+//! halves: on AVX2 hosts (no AVX-512), where `wide` keeps an f32x16 so, and
+//! in AVX-512 builds with the `ymm-kernels` feature ([`super::lanes`]).
 //!
 //! Without these, the portable fallbacks move all 16 lanes through memory
 //! one by one, and LLVM left some of them as out-of-line closure calls: on
@@ -8,17 +9,21 @@
 //! timings, against about 3.5× for the lane-wise arithmetic around them.
 //! The lane operations move lanes only (or add them in the portable
 //! fallback's order), so their results are bit for bit the fallback's.
-//! The 1/√x estimate is vrsqrtps's, lane for lane the scalar rsqrtss that
-//! [`super::fast_math::rsqrt`] starts from.
+//! The 1/√x estimate is lane for lane the scalar one that
+//! [`super::fast_math::rsqrt`] starts from: vrsqrtps's, or vrsqrt14ps's on
+//! AVX-512.
 
+use super::lanes::f32x16;
+#[cfg(not(target_feature = "avx512vl"))]
+use std::arch::x86_64::_mm256_rsqrt_ps;
 use std::arch::x86_64::{
     __m128, __m256, __m256i, _mm_add_ps, _mm_movehl_ps, _mm_movelh_ps, _mm_unpackhi_ps,
     _mm_unpacklo_ps, _mm256_add_ps, _mm256_and_si256, _mm256_blend_ps, _mm256_blendv_ps,
     _mm256_castps128_ps256, _mm256_castps256_ps128, _mm256_castsi256_ps, _mm256_cmpeq_epi32,
-    _mm256_extractf128_ps, _mm256_permute2f128_ps, _mm256_permutevar8x32_ps, _mm256_rsqrt_ps,
-    _mm256_set1_epi32, _mm256_setr_epi32, _mm256_slli_epi32,
+    _mm256_extractf128_ps, _mm256_permute2f128_ps, _mm256_permutevar8x32_ps, _mm256_set1_epi32,
+    _mm256_setr_epi32, _mm256_slli_epi32,
 };
-use wide::{f32x4, f32x16};
+use wide::f32x4;
 
 // `wide` lays an f32x16 out as two f32x8 (low lanes first) without
 // AVX-512, and an f32x8 as one __m256 with AVX: 64 bytes either way.
@@ -37,12 +42,22 @@ fn join(h: [__m256; 2]) -> f32x16 {
 }
 
 /// The hardware estimate of 1/√x per lane (vrsqrtps, relative error
-/// < 1.5·2⁻¹²), the one [`super::fast_math::rsqrt_x16`] refines.
+/// < 1.5·2⁻¹²; vrsqrt14ps, < 2⁻¹⁴, on AVX-512, as the scalar's), the one
+/// [`super::fast_math::rsqrt_x16`] refines.
 #[inline(always)]
 pub fn rsqrt_estimate(x: f32x16) -> f32x16 {
     let [lo, hi] = halves(x);
+    #[cfg(target_feature = "avx512vl")]
+    // SAFETY: avx512vl is enabled at compile time (the cfg above).
+    unsafe {
+        use std::arch::x86_64::_mm256_rsqrt14_ps;
+        join([_mm256_rsqrt14_ps(lo), _mm256_rsqrt14_ps(hi)])
+    }
+    #[cfg(not(target_feature = "avx512vl"))]
     // SAFETY: avx2 is enabled at compile time (the caller's cfg).
-    unsafe { join([_mm256_rsqrt_ps(lo), _mm256_rsqrt_ps(hi)]) }
+    unsafe {
+        join([_mm256_rsqrt_ps(lo), _mm256_rsqrt_ps(hi)])
+    }
 }
 
 /// Lanes idx[l] (< 16) of `v`: each half picks from both source halves by
