@@ -5,17 +5,18 @@
 //! lanes as two 256-bit halves, while the rest of the program keeps its
 //! AVX-512 code generation (EVEX encodings, 32 vector registers).
 //!
-//! Why a build would want that: on Intel cores, 512-bit floating-point
-//! multiplies lower the core's clock for every instruction that follows
-//! them, for a while after the last one. A product render runs the
+//! Why a build would want that: on Intel cores any 512-bit floating-point
+//! instruction (a multiply, an add, a conversion) lowers the core's clock
+//! for every instruction that follows it, for a while after the last one. A product render runs the
 //! kernels at every vertex, so the whole render, ray traversal included,
 //! runs at the lower clock. `docs/results-reading.md` (session 63) measures
 //! it. AMD's Zen 4 and Zen 5 have no such penalty, so the default keeps
 //! the zmm kernels.
 //!
 //! The kernels only use the operations below, in the same order in both
-//! types, so the two builds agree lane for lane (the reciprocal square
-//! root estimate excepted, see [`super::fast_math::rsqrt_estimate_x16`]).
+//! types, so the two builds agree bit for bit; the 1/√x estimate is
+//! vrsqrt14ps on each half as on the whole register
+//! ([`super::fast_math::rsqrt_estimate_x16`]).
 
 #[cfg(not(feature = "ymm-kernels"))]
 pub use wide::f32x16;
