@@ -76,7 +76,7 @@ pub fn form_factor(cell: Cell) -> Vec3 {
         let n = 1u32 << cell.depth;
         table()[level_offset(cell.depth) + (cell.iy * n + cell.ix) as usize]
     } else {
-        cell_form_factor_f32(cell)
+        cell_form_factor(cell).as_vec3()
     }
 }
 

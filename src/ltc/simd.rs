@@ -191,10 +191,7 @@ pub fn shuffle_blocks<const ORDER: i32>(v: f32x16) -> f32x16 {
 #[inline(always)]
 pub fn heights_and_radii(u: u32, h: f32, i: f32x16) -> (f32x16, f32x16) {
     debug_assert!(u < 1 << 24);
-    #[cfg(not(feature = "ymm-kernels"))]
-    let u = wide::i32x16::splat(u as i32).round_float();
-    #[cfg(feature = "ymm-kernels")]
-    let u = f32x16::splat_converted(u as i32);
+    let u = super::lanes::splat_converted(u as i32);
     let z = ((u + i) * splat(h)).mul_add(splat(2.0), splat(-1.0));
     // z is an exact dyadic in [−1, 1] for any cell, so 1 ∓ z are exact
     // and their product is ≥ 0: the scalar `max(0)` is a no-op here.
