@@ -253,6 +253,10 @@ pub struct RenderStats {
     pub cpu_seconds: f64,
     pub rays_per_second: f64,
     pub threads: usize,
+    /// How this build holds the LTC kernels' 16 lanes
+    /// ([`crate::ltc::lanes::LAYOUT`]): builds that differ here render the
+    /// same image at different speeds.
+    pub ltc_lanes: String,
     pub seed: u64,
     pub nee: bool,
     pub max_depth: Option<u32>,
@@ -468,6 +472,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderResult, Strin
         cpu_seconds,
         rays_per_second: (counters.rays + counters.shadow_rays) as f64 / seconds.max(1e-9),
         threads,
+        ltc_lanes: crate::ltc::lanes::LAYOUT.to_string(),
         seed: opts.seed,
         nee: opts.path.nee,
         max_depth: opts.path.max_depth,

@@ -240,6 +240,10 @@ pub fn cmd_render(args: &RenderArgs) -> Result<(), String> {
         ltcguide::film::ensure_writable(path)?;
     }
     eprintln!("{}", plan.line());
+    let product_kernels = plan.method == Method::Product && plan.ltc_glossy;
+    if let Some(note) = ltcguide::ltc::lanes::layout_note(product_kernels) {
+        eprintln!("{note}");
+    }
     let result = render(&scene, &opts)?;
     write_rgb(
         &args.out,

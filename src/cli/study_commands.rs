@@ -110,6 +110,11 @@ pub fn cmd_compare(args: &CompareArgs) -> Result<(), String> {
     ltcguide::guiding::defensive::check_radiance_share(args.product.radiance_share)?;
     let scene = load(&args.scene)?;
     let reference = read_valid_image(&args.reference)?;
+    let product_kernels =
+        args.methods.contains(&Method::Product) && ltcguide::plan::lobe_inventory(&scene).glossy;
+    if let Some(note) = ltcguide::ltc::lanes::layout_note(product_kernels) {
+        eprintln!("{note}");
+    }
     let opts = ltcguide::experiment::compare::CompareOptions {
         methods: args.methods.clone(),
         seconds: args.time,

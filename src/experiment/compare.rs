@@ -472,6 +472,17 @@ fn write_final_images(
     )
 }
 
+/// The product's settings name a build whose kernels hold their lanes in
+/// two 256-bit halves on an AVX-512 machine: it computes the default
+/// build's images at another speed, so `merge` must not pool the two.
+fn lanes_phrase(layout: &str) -> &'static str {
+    if layout == "ymm-kernels" {
+        ", LTC kernels in 256-bit halves (ymm-kernels build)"
+    } else {
+        ""
+    }
+}
+
 /// The CPU model, from /proc/cpuinfo where available.
 pub fn cpu_model() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
@@ -528,13 +539,14 @@ fn summary_markdown(
             }
             let cosine = if m == Method::Product {
                 format!(
-                    ", product weights at {}, cosine lobes: {}",
+                    ", product weights at {}, cosine lobes: {}{}",
                     crate::guiding::product::product_weights_scope(
                         opts.product_vertices,
                         opts.pixel_reuse,
                         opts.radiance_share
                     ),
-                    format!("{:?}", opts.cosine_lobes).to_lowercase()
+                    format!("{:?}", opts.cosine_lobes).to_lowercase(),
+                    lanes_phrase(crate::ltc::lanes::LAYOUT)
                 )
             } else {
                 String::new()

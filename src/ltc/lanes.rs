@@ -25,6 +25,54 @@ pub use wide::f32x16;
 #[allow(non_camel_case_types)]
 pub type f32x16 = F32x16Pair;
 
+/// How this build holds the wide kernels' 16 lanes, as `render
+/// --stats-json` and `compare`'s pages name it: `zmm` (one 512-bit
+/// register, the default on AVX-512), `ymm-kernels` (two 256-bit halves on
+/// an AVX-512 build, the cargo feature), `avx2` (a build without AVX-512:
+/// `wide` splits the lanes itself) or `portable`.
+pub const LAYOUT: &str = if cfg!(zmm_kernels) {
+    "zmm"
+} else if cfg!(feature = "ymm-kernels") && cfg!(target_feature = "avx512f") {
+    "ymm-kernels"
+} else if cfg!(target_feature = "avx2") {
+    "avx2"
+} else {
+    "portable"
+};
+
+/// Whether this process runs on an Intel core with AVX-512, where a
+/// 512-bit floating-point instruction lowers the clock of what follows it
+/// (session 63 measured 8 % on a Xeon; AMD's Zen 4 and Zen 5 do not).
+pub fn host_slows_under_512_bit_arithmetic() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // CPUID leaf 0 (the vendor string) exists on every x86-64 processor.
+        let id = std::arch::x86_64::__cpuid(0);
+        let vendor: Vec<u8> = [id.ebx, id.edx, id.ecx]
+            .iter()
+            .flat_map(|r| r.to_le_bytes())
+            .collect();
+        vendor == b"GenuineIntel" && std::arch::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// A note for a run whose product descents use the wide kernels, when
+/// this build's zmm kernels will lower the clock of the host's whole
+/// render: the build to use instead.
+pub fn layout_note(uses_wide_kernels: bool) -> Option<String> {
+    (uses_wide_kernels && LAYOUT == "zmm" && host_slows_under_512_bit_arithmetic()).then(|| {
+        "note: this Intel AVX-512 core lowers its clock under the zmm LTC kernels, for the \
+         whole render; a `cargo build --release --features ymm-kernels` binary computes the same \
+         image faster here (staircase's product: 4-5 % more samples per CPU second, \
+         docs/results-reading.md, session 63)"
+            .to_string()
+    })
+}
+
 use std::ops::{Add, AddAssign, BitAnd, BitXor, Div, Mul, Neg, Not, Sub};
 use wide::f32x8;
 
