@@ -200,10 +200,30 @@ impl Accel {
         }
     }
 
-    /// Closest hit along o + t·d for t in (tmin, tmax). Not inlined: the
-    /// traversal is large and its callers inline the hit's interaction.
-    #[inline(never)]
+    /// Closest hit along o + t·d for t in (tmin, tmax).
+    #[inline(always)]
     pub fn closest_hit(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        self.closest_hit_in_registers(o.x, o.y, o.z, d.x, d.y, d.z, tmin, tmax)
+    }
+
+    /// Not inlined: the traversal is large and its callers inline the hit's
+    /// interaction. The ray comes as eight floats, which the ABI passes in
+    /// xmm registers; as two `Vec3`s it was passed through stack copies
+    /// that the traversal's first instructions had to reload.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn closest_hit_in_registers(
+        &self,
+        ox: f32,
+        oy: f32,
+        oz: f32,
+        dx: f32,
+        dy: f32,
+        dz: f32,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let (o, d) = (Vec3::new(ox, oy, oz), Vec3::new(dx, dy, dz));
         let mut best = tmax;
         let mut best_prim = u32::MAX;
         let mut uv = (0.0, 0.0);
