@@ -7,6 +7,7 @@ mod common;
 
 use common::study::{settings, tiny};
 use ltcguide::guiding::adam::FractionLearning;
+use ltcguide::guiding::product::CosineLobes;
 use ltcguide::integrator::path::{PathSettings, RouletteMode};
 use ltcguide::render::{Method, TimeBase};
 use ltcguide::scene::Scene;
@@ -98,6 +99,9 @@ fn attribution_pairs_differ_only_in_the_method() {
         bsdf_fraction_l2: None,
         bsdf_fraction_learning: FractionLearning::Kl,
         radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(0.3),
+        cosine_lobes: CosineLobes::Radiance,
+        product_vertices: 1,
+        pixel_reuse: true,
         clock: TimeBase::Cpu,
         progress: false,
     };
@@ -141,6 +145,36 @@ fn attribution_pairs_differ_only_in_the_method() {
     let seeds_differ =
         out.alpha[0] != out.alpha[1] || out.factors.iter().any(|f| f.per_seed[0] != f.per_seed[1]);
     assert!(seeds_differ, "{}", out.markdown);
+
+    // The paper's product (cosine product at every vertex, no lobe reuse)
+    // reaches the renders: on the same cosine-only scene its guide is no
+    // longer radiance guiding's, so the variance per sample moves off 1, and
+    // the header names the settings.
+    let paper = AttributionOptions {
+        cosine_lobes: CosineLobes::Product,
+        product_vertices: 0,
+        pixel_reuse: false,
+        seeds: 1,
+        ..options(&diffuse, false)
+    };
+    let out = run_attribution(&diffuse, &paper).unwrap();
+    assert!(
+        out.markdown.contains("product weights at every vertex;")
+            && out.markdown.contains("no lobe reuse across paths")
+            && out.markdown.contains("cosine lobes: product,")
+            && out
+                .markdown
+                .contains("cosine-only vertices take the cosine product"),
+        "{}",
+        out.markdown
+    );
+    let per_sample = &out.factors[2];
+    assert!(per_sample.name.starts_with("variance per sample"));
+    assert!(
+        (per_sample.per_seed[0] - 1.0).abs() > 1e-3,
+        "{}",
+        out.markdown
+    );
 
     let glossy_xml = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/analytic/sphere_over_plane.xml"),
@@ -321,6 +355,9 @@ fn attribution_refuses_options_it_cannot_run() {
         bsdf_fraction_l2: None,
         bsdf_fraction_learning: FractionLearning::Kl,
         radiance_share: ltcguide::guiding::defensive::RadianceShare::fixed(0.3),
+        cosine_lobes: CosineLobes::Radiance,
+        product_vertices: 1,
+        pixel_reuse: true,
         clock: TimeBase::Wall,
         progress: false,
     };

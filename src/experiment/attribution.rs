@@ -35,6 +35,7 @@ use super::pixel_classes::{PixelClass, class_counts, class_sums, classify};
 use crate::film::image::Image;
 use crate::film::metrics::RELMSE_EPSILON;
 use crate::guiding::aov::alpha_aov;
+use crate::guiding::product::CosineLobes;
 use crate::guiding::sdtree::SdTree;
 use crate::integrator::path::{PathSettings, RouletteMode};
 use crate::ltc::ProductKernel;
@@ -89,6 +90,18 @@ pub struct AttributeArgs {
     /// What a learned radiance share minimises (as for render).
     #[arg(long, value_enum, default_value_t = crate::guiding::share_learning::ShareLearning::default())]
     pub radiance_share_learning: crate::guiding::share_learning::ShareLearning,
+    /// The product's weights at vertices whose lobes are all cosines (as
+    /// for render; `product` is the paper's).
+    #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
+    pub cosine_lobes: CosineLobes,
+    /// The first N vertices of each path take product weights (as for
+    /// render; 0 = every vertex, the paper's).
+    #[arg(long, default_value_t = crate::guiding::product::DEFAULT_PRODUCT_VERTICES)]
+    pub product_vertices: u32,
+    /// Every product path computes its own first lobe, as in the paper
+    /// (as for render).
+    #[arg(long)]
+    pub no_pixel_reuse: bool,
     /// What the seconds factors measure: each render's own CPU seconds per
     /// thread (the two renders of a pair run at once, and the scheduler
     /// does not share the cores between them evenly: `src/cpu_clock.rs`),
@@ -121,6 +134,9 @@ impl AttributeArgs {
                 learned: self.learn_radiance_share,
                 learning: self.radiance_share_learning,
             },
+            cosine_lobes: self.cosine_lobes,
+            product_vertices: self.product_vertices,
+            pixel_reuse: !self.no_pixel_reuse,
             clock: self.clock,
             progress: true,
         }
@@ -149,6 +165,12 @@ pub struct AttributionOptions {
     pub bsdf_fraction_learning: crate::guiding::adam::FractionLearning,
     /// The product's radiance share (`guiding::defensive`).
     pub radiance_share: crate::guiding::defensive::RadianceShare,
+    /// The product's weights at cosine-only vertices.
+    pub cosine_lobes: CosineLobes,
+    /// The first this many vertices take product weights (0: every one).
+    pub product_vertices: u32,
+    /// The product's first lobe reused across neighbouring paths.
+    pub pixel_reuse: bool,
     /// The clock of the seconds factors. With several threads per render,
     /// the CPU clock counts the renders' serial phases at 1/threads.
     pub clock: TimeBase,
@@ -405,6 +427,9 @@ pub fn run_attribution(
         bsdf_fraction_l2: opts.bsdf_fraction_l2,
         bsdf_fraction_learning: opts.bsdf_fraction_learning,
         radiance_share: opts.radiance_share,
+        cosine_lobes: opts.cosine_lobes,
+        product_vertices: opts.product_vertices,
+        pixel_reuse: opts.pixel_reuse,
         time_base: opts.clock,
         ..Default::default()
     };
@@ -596,7 +621,7 @@ pub fn run_attribution(
         })
         .collect();
     let mut markdown = markdown(scene, opts, side, &rows, &alpha);
-    markdown.push_str(&class_markdown(&by_class));
+    markdown.push_str(&class_markdown(&by_class, opts.cosine_lobes));
     markdown.push_str(&glossy_markdown(&at_glossy, opts.guide_fraction));
     Ok(AttributionOutcome {
         factors: rows,

@@ -4,6 +4,7 @@
 use super::attribution::{
     AttributionOptions, ClassSplit, EQUAL_TIME, EXPECTED_RELMSE, Factor, geometric_mean,
 };
+use crate::guiding::product::CosineLobes;
 use crate::render::TimeBase;
 use crate::scene::Scene;
 use std::fmt::Write;
@@ -19,14 +20,19 @@ pub(super) fn markdown(
     let _ = writeln!(
         md,
         "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
-         NEE {}{}, every part of the method forced on, the product's radiance share {}, seconds {}. \
-         < 1 favours the product.\n",
+         NEE {}{}, every part of the method forced on, product weights at {}, cosine lobes: {}, \
+         seconds {}. < 1 favours the product.\n",
         scene.name,
         opts.spp,
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
         super::compare::fraction_phrase(opts.bsdf_fraction_l2, opts.bsdf_fraction_learning),
-        opts.radiance_share,
+        crate::guiding::product::product_weights_scope(
+            opts.product_vertices,
+            opts.pixel_reuse,
+            opts.radiance_share
+        ),
+        format!("{:?}", opts.cosine_lobes).to_lowercase(),
         match opts.clock {
             TimeBase::Cpu => "of each render's own CPU time per thread",
             TimeBase::Wall => "of wall-clock time",
@@ -54,11 +60,16 @@ pub(super) fn markdown(
 
 /// The split of the final iteration's relative variance by the pixels'
 /// first vertex.
-pub(super) fn class_markdown(split: &[ClassSplit]) -> String {
-    let mut md = String::from(
+pub(super) fn class_markdown(split: &[ClassSplit], cosine_lobes: CosineLobes) -> String {
+    let where_product_acts = match cosine_lobes {
+        CosineLobes::Radiance => {
+            "the product acts first only at glossy vertices; cosine-only ones take radiance weights"
+        }
+        CosineLobes::Product => "cosine-only vertices take the cosine product",
+    };
+    let mut md = format!(
         "\nThe final iteration's relative variance per sample by the first non-delta vertex \
-         seen through each pixel's centre, product / radiance per seed (the product acts \
-         first only at glossy vertices; cosine-only ones take radiance weights):\n\n",
+         seen through each pixel's centre, product / radiance per seed ({where_product_acts}):\n\n",
     );
     let seeds = split.first().map_or(0, |s| s.per_seed.len());
     let head: String = (1..=seeds).map(|s| format!(" seed {s} |")).collect();
