@@ -132,15 +132,18 @@ pub struct GuidedArgs {
 pub struct ProductArgs {
     /// Product guiding at vertices whose lobes are all cosines (diffuse,
     /// GGX with α > 0.5): `radiance` weights (default; the cosine product
-    /// measured at half their efficiency, docs/results-reading.md) or the
-    /// paper's cosine `product`.
+    /// measured at half their efficiency with NEE, and without NEE less
+    /// variance per sample but more time, so less efficient at equal time,
+    /// docs/results-reading.md, sessions 7 and 67) or the paper's cosine
+    /// `product`.
     #[arg(long, value_enum, default_value_t = CosineLobes::Radiance)]
     pub cosine_lobes: CosineLobes,
     /// Product guiding: the first N vertices of each path take product
-    /// weights, deeper ones radiance weights (default 1: deeper vertices'
-    /// product measured at 13–32 % of the run's CPU for no resolvable
-    /// variance, docs/results-reading.md); 0 = every vertex, the paper's
-    /// setting.
+    /// weights, deeper ones radiance weights (default 1: with NEE deeper
+    /// vertices' product measured at 13–32 % of the run's CPU for no
+    /// resolvable variance; without NEE it lowers the variance per sample
+    /// but costs more than it saves at equal time, docs/results-reading.md,
+    /// sessions 7 and 67); 0 = every vertex, the paper's setting.
     #[arg(long, default_value_t = ltcguide::guiding::product::DEFAULT_PRODUCT_VERTICES)]
     pub product_vertices: u32,
     /// Product guiding: every path computes its own first product lobe, as

@@ -56,9 +56,19 @@ pub struct ProductModel<'t> {
 /// | veach-ajar | 41.6, 15.0 s | 41.7, 13.0 s | 43.0, 10.8 s |
 ///
 /// The deeper vertices' product cost 13–32 % of the run and bought no
-/// variance the runs could resolve: a deeper vertex's contribution reaches
-/// the pixel through the blur of the earlier bounces, so ranking its
-/// children by the BSDF as well as the radiance changes little.
+/// variance the runs could resolve: with NEE a deeper vertex's direct light
+/// comes from the light sample, and its indirect contribution reaches the
+/// pixel through the blur of the earlier bounces.
+///
+/// Without NEE (the results pages' setting) the deeper vertices must find
+/// the lights themselves, and their product does pay per sample: at 64 spp
+/// on staircase (2 seeds, `ltcguide attribute`) the expected relMSE at
+/// equal samples falls from 0.94× radiance guiding's to 0.80× with product
+/// weights at every vertex. But the run's time rises from 1.22× to 1.73×
+/// radiance guiding's (no lobe reuse below the first vertex: every deeper
+/// vertex builds its lobe and its coarse levels), so at equal time the
+/// first vertex alone stays ahead, 1.14× against 1.38×
+/// (docs/results-reading.md, session 67).
 pub const DEFAULT_PRODUCT_VERTICES: u32 = 1;
 
 /// Where product weights apply for a `product_vertices` setting, whether
@@ -96,7 +106,13 @@ pub fn product_weights_scope(
 /// time by 14 % (41.5 → 35.8 s) at the same variance per sample (0.1176
 /// and 0.1180). The cosine barely varies across the cells radiance
 /// guiding already resolves, so it ranks their children by little, at the
-/// cost of an integral per visited node.
+/// cost of an integral per visited node. Without NEE (the results pages'
+/// setting) the cosine product keeps a vertex's samples above its surface
+/// and does pay per sample, but not at equal time: on staircase at 64 spp
+/// with product weights at every vertex, the expected relMSE at equal
+/// samples is 0.70× radiance guiding's with it and 0.80× without, at 1.92×
+/// and 1.73× the run's time (equal time: 1.34× and 1.38×, against 1.14×
+/// for the defaults; docs/results-reading.md, session 67).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 pub enum CosineLobes {
     /// Radiance weights: the cheaper strategy, measured more efficient.
