@@ -20,19 +20,18 @@ pub(super) fn markdown(
     let _ = writeln!(
         md,
         "Attribution on {}: product / radiance, {} spp, seeds 1–{}, side by side ({side} thread(s) each), \
-         NEE {}{}, every part of the method forced on, product weights at {}, cosine lobes: {}, \
-         seconds {}. < 1 favours the product.\n",
+         NEE {}{}, every part of the method forced on, {}, seconds {}. < 1 favours the product.\n",
         scene.name,
         opts.spp,
         opts.seeds,
         if opts.path.nee { "on" } else { "off" },
         super::compare::fraction_phrase(opts.bsdf_fraction_l2, opts.bsdf_fraction_learning),
-        crate::guiding::product::product_weights_scope(
+        crate::guiding::product::product_scope_phrase(
             opts.product_vertices,
             opts.pixel_reuse,
-            opts.radiance_share
+            opts.radiance_share,
+            opts.cosine_lobes
         ),
-        format!("{:?}", opts.cosine_lobes).to_lowercase(),
         match opts.clock {
             TimeBase::Cpu => "of each render's own CPU time per thread",
             TimeBase::Wall => "of wall-clock time",

@@ -539,13 +539,13 @@ fn summary_markdown(
             }
             let cosine = if m == Method::Product {
                 format!(
-                    ", product weights at {}, cosine lobes: {}{}",
-                    crate::guiding::product::product_weights_scope(
+                    ", {}{}",
+                    crate::guiding::product::product_scope_phrase(
                         opts.product_vertices,
                         opts.pixel_reuse,
-                        opts.radiance_share
+                        opts.radiance_share,
+                        opts.cosine_lobes
                     ),
-                    format!("{:?}", opts.cosine_lobes).to_lowercase(),
                     lanes_phrase(crate::ltc::lanes::LAYOUT)
                 )
             } else {

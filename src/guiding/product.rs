@@ -93,6 +93,21 @@ pub fn product_weights_scope(
     format!("{scope}; {share}; {reuse}")
 }
 
+/// "product weights at …, cosine lobes: …": the product's whole scope, as
+/// `compare`'s settings line and `attribute`'s header name it.
+pub fn product_scope_phrase(
+    product_vertices: u32,
+    pixel_reuse: bool,
+    radiance_share: super::defensive::RadianceShare,
+    cosine_lobes: CosineLobes,
+) -> String {
+    format!(
+        "product weights at {}, cosine lobes: {}",
+        product_weights_scope(product_vertices, pixel_reuse, radiance_share),
+        format!("{cosine_lobes:?}").to_lowercase()
+    )
+}
+
 /// The child weights at a vertex whose lobes are all cosines (diffuse
 /// surfaces, plastic without a glossy coat, GGX lobes rougher than
 /// `rough_as_diffuse_above`).
