@@ -1,7 +1,8 @@
 //! Feasibility of Stokes quadrature along parallels (prototype, f64): the
 //! clipped LTC integral of the children at levels 2–5 by exact meridian
 //! edges + quadrature of (u×u')_z/|u|² along the parallels, against a
-//! fine-chord f64 reference, next to the chord polygons at P = 4 and 6.
+//! fine-chord f64 reference, next to the chord polygons at P = 4 and 6 and
+//! the single chord per cell edge that a plain-quad kernel takes.
 #![allow(clippy::needless_range_loop)] // k indexes refs and the children alike
 
 use glam::{DMat3, DVec3, Vec3};
@@ -16,6 +17,8 @@ use std::f64::consts::PI;
 #[derive(Clone, Copy)]
 enum Rule {
     Chords(u32),
+    /// One chord per cell edge (the plain quad of the deep levels).
+    OneChord,
     Gl(usize),
     /// N ∈ {4,8,16,32} by κ_F·span/N ≤ x (chords P=6 when none fits).
     Adapt(f64),
@@ -71,7 +74,7 @@ fn parallel_piece(l: &Lobe, z0: f64, ta: f64, tb: f64, rule: Rule, gl: &[(f64, f
     };
     let d = |t: f64| (l.a * DVec3::new(r * t.cos(), r * t.sin(), z0)).length_squared();
     match rule {
-        Rule::Gl(_) | Rule::Chords(_) | Rule::Adapt(_) => {
+        Rule::Gl(_) | Rule::Chords(_) | Rule::OneChord | Rule::Adapt(_) => {
             let (m, h) = (0.5 * (ta + tb), 0.5 * (tb - ta));
             gl.iter().map(|&(x, w)| w * h * f(m + h * x)).sum()
         }
@@ -227,6 +230,7 @@ fn main() {
     .map(|n| Frame::from_normal(n.normalize()));
     let args: Vec<String> = std::env::args().collect();
     let rules: Vec<(String, Rule)> = vec![
+        ("one chord".into(), Rule::OneChord),
         ("chords P=4".into(), Rule::Chords(4)),
         ("chords P=6".into(), Rule::Chords(6)),
         ("GL4".into(), Rule::Gl(4)),
@@ -292,6 +296,7 @@ fn main() {
                                         .find(|&&n| kf * span / n as f64 <= *x)
                                         .map(|&n| Rule::Gl(n))
                                         .unwrap_or(Rule::Chords(6)),
+                                    Rule::OneChord => Rule::Chords(level),
                                     r => *r,
                                 };
                                 let gl = match rule {
@@ -308,7 +313,7 @@ fn main() {
                                             l.orient,
                                             1.0 / (1u64 << p) as f64,
                                         ),
-                                        Rule::Adapt(_) => unreachable!(),
+                                        Rule::Adapt(_) | Rule::OneChord => unreachable!(),
                                         _ => stokes_cell(&l, node.child(k), *rule, &gl),
                                     };
                                     let e = (got - refs[k]).abs() / parent;
